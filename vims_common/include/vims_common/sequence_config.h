@@ -1,0 +1,76 @@
+#pragma once
+/// @file sequence_config.h
+/// @brief The sensor configuration of one sequence (`<seq>.yaml`), as defined by the sensor
+/// data contract (docs/sensor-contract.md). Every calibration VIMS uses comes from here.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "vims_common/config_reader.h"
+
+namespace vims {
+
+struct TopicNames {
+  std::string image = "/cam0/image_raw";
+  std::string imu = "/imu0";
+  std::string sonar = "/sonar/range";
+  std::string mag = "/mag/raw";
+};
+
+/// Pinhole camera with radial-tangential (k1, k2, p1, p2) distortion.
+struct CameraCalibration {
+  std::string model = "pinhole";
+  int width = 640;
+  int height = 480;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::array<double, 4> distortion{{0, 0, 0, 0}};  ///< k1, k2, p1, p2
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  ///< camera optical frame in body
+  double rate_hz = 10.0;
+};
+
+struct ImuCalibration {
+  double rate_hz = 200.0;
+  double gyro_noise_density = 0.0;   ///< rad/s/sqrt(Hz)
+  double gyro_random_walk = 0.0;     ///< rad/s^2/sqrt(Hz)
+  double accel_noise_density = 0.0;  ///< m/s^2/sqrt(Hz)
+  double accel_random_walk = 0.0;    ///< m/s^3/sqrt(Hz)
+  double gravity = 9.81;             ///< m/s^2
+};
+
+struct SonarCalibration {
+  Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();  ///< beam along the sonar +z axis
+  double rate_hz = 10.0;
+  double range_noise_std = 0.0;  ///< m
+  double min_range = 0.1;        ///< m
+  double max_range = 50.0;       ///< m
+};
+
+struct MagnetometerCalibration {
+  Eigen::Isometry3d T_b_m = Eigen::Isometry3d::Identity();
+  double rate_hz = 1000.0;
+  double noise_std = 0.0;           ///< tesla, per axis and sample
+  double coil_frequency_hz = 11.0;  ///< frequency of the seabed coil's alternating field
+  double declination_deg = 0.0;     ///< magnetic declination at the site, east positive
+};
+
+struct SequenceConfig {
+  TopicNames topics;
+  CameraCalibration camera;
+  ImuCalibration imu;
+  SonarCalibration sonar;
+  MagnetometerCalibration magnetometer;
+
+  /// Reads and validates a sequence YAML. Throws ConfigError naming the bad key.
+  /// Keys the contract does not define are returned in `unknown_keys` (if given): another
+  /// recorder may add its own, so they are worth a warning, not a failure.
+  static SequenceConfig load(const std::string& path, std::vector<std::string>* unknown_keys = nullptr);
+  static SequenceConfig fromReader(const ConfigReader& root, std::vector<std::string>* unknown_keys = nullptr);
+
+  /// Writes the contract's YAML (loadable by `rosparam load`). Throws std::runtime_error on I/O failure.
+  void save(const std::string& path) const;
+  std::string toYaml() const;
+};
+
+}  // namespace vims

@@ -1,0 +1,152 @@
+#include "vims_common/sequence_config.h"
+
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+namespace vims {
+namespace {
+
+void collectUnknown(const ConfigReader& reader, const std::set<std::string>& allowed,
+                    std::vector<std::string>* unknown_keys) {
+  if (!unknown_keys) return;
+  for (auto& k : reader.unknownKeys(allowed)) unknown_keys->push_back(k);
+}
+
+std::string transformToYaml(const Eigen::Isometry3d& T) {
+  std::ostringstream os;
+  os << std::setprecision(12) << "[";
+  const Eigen::Matrix4d m = T.matrix();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) os << m(r, c) << (r == 3 && c == 3 ? "" : ", ");
+  os << "]";
+  return os.str();
+}
+
+}  // namespace
+
+SequenceConfig SequenceConfig::load(const std::string& path, std::vector<std::string>* unknown_keys) {
+  return fromReader(ConfigReader::fromFile(path), unknown_keys);
+}
+
+SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<std::string>* unknown_keys) {
+  SequenceConfig cfg;
+  collectUnknown(root, {"topics", "camera", "imu", "sonar", "magnetometer"}, unknown_keys);
+
+  const ConfigReader topics = root.childOrEmpty("topics");
+  collectUnknown(topics, {"image", "imu", "sonar", "mag"}, unknown_keys);
+  cfg.topics.image = topics.get<std::string>("image", cfg.topics.image);
+  cfg.topics.imu = topics.get<std::string>("imu", cfg.topics.imu);
+  cfg.topics.sonar = topics.get<std::string>("sonar", cfg.topics.sonar);
+  cfg.topics.mag = topics.get<std::string>("mag", cfg.topics.mag);
+
+  const ConfigReader cam = root.child("camera");
+  collectUnknown(cam, {"model", "width", "height", "intrinsics", "distortion", "T_b_c", "rate_hz"}, unknown_keys);
+  cfg.camera.model = cam.get<std::string>("model");
+  if (cfg.camera.model != "pinhole") throw cam.error("model", "only 'pinhole' (with radtan distortion) is supported, got '" + cfg.camera.model + "'");
+  cfg.camera.width = cam.get<int>("width");
+  cfg.camera.height = cam.get<int>("height");
+  if (cfg.camera.width <= 0) throw cam.error("width", "must be a positive number of pixels");
+  if (cfg.camera.height <= 0) throw cam.error("height", "must be a positive number of pixels");
+  const auto intr = cam.getVector("intrinsics", 4);
+  cfg.camera.fx = intr[0];
+  cfg.camera.fy = intr[1];
+  cfg.camera.cx = intr[2];
+  cfg.camera.cy = intr[3];
+  if (cfg.camera.fx <= 0 || cfg.camera.fy <= 0) throw cam.error("intrinsics", "focal lengths fx, fy must be > 0");
+  const auto dist = cam.getVector("distortion", 4);
+  for (int i = 0; i < 4; ++i) cfg.camera.distortion[i] = dist[i];
+  cfg.camera.T_b_c = cam.getTransform("T_b_c");
+  cfg.camera.rate_hz = cam.get<double>("rate_hz");
+  requirePositive(cam, "rate_hz", cfg.camera.rate_hz);
+
+  const ConfigReader imu = root.child("imu");
+  collectUnknown(imu, {"rate_hz", "gyro_noise_density", "gyro_random_walk", "accel_noise_density", "accel_random_walk", "gravity"}, unknown_keys);
+  cfg.imu.rate_hz = imu.get<double>("rate_hz");
+  requirePositive(imu, "rate_hz", cfg.imu.rate_hz);
+  cfg.imu.gyro_noise_density = imu.get<double>("gyro_noise_density");
+  cfg.imu.gyro_random_walk = imu.get<double>("gyro_random_walk");
+  cfg.imu.accel_noise_density = imu.get<double>("accel_noise_density");
+  cfg.imu.accel_random_walk = imu.get<double>("accel_random_walk");
+  requireNonNegative(imu, "gyro_noise_density", cfg.imu.gyro_noise_density);
+  requireNonNegative(imu, "gyro_random_walk", cfg.imu.gyro_random_walk);
+  requireNonNegative(imu, "accel_noise_density", cfg.imu.accel_noise_density);
+  requireNonNegative(imu, "accel_random_walk", cfg.imu.accel_random_walk);
+  cfg.imu.gravity = imu.get<double>("gravity", cfg.imu.gravity);
+  requireInRange(imu, "gravity", cfg.imu.gravity, 9.7, 9.9);
+
+  const ConfigReader sonar = root.child("sonar");
+  collectUnknown(sonar, {"T_b_s", "rate_hz", "range_noise_std", "min_range", "max_range"}, unknown_keys);
+  cfg.sonar.T_b_s = sonar.getTransform("T_b_s");
+  cfg.sonar.rate_hz = sonar.get<double>("rate_hz");
+  requirePositive(sonar, "rate_hz", cfg.sonar.rate_hz);
+  cfg.sonar.range_noise_std = sonar.get<double>("range_noise_std");
+  requireNonNegative(sonar, "range_noise_std", cfg.sonar.range_noise_std);
+  cfg.sonar.min_range = sonar.get<double>("min_range");
+  cfg.sonar.max_range = sonar.get<double>("max_range");
+  requireNonNegative(sonar, "min_range", cfg.sonar.min_range);
+  if (!(cfg.sonar.max_range > cfg.sonar.min_range)) throw sonar.error("max_range", "must be greater than min_range");
+
+  const ConfigReader mag = root.child("magnetometer");
+  collectUnknown(mag, {"T_b_m", "rate_hz", "noise_std", "coil_frequency_hz", "declination_deg"}, unknown_keys);
+  cfg.magnetometer.T_b_m = mag.getTransform("T_b_m");
+  cfg.magnetometer.rate_hz = mag.get<double>("rate_hz");
+  requirePositive(mag, "rate_hz", cfg.magnetometer.rate_hz);
+  cfg.magnetometer.noise_std = mag.get<double>("noise_std");
+  requireNonNegative(mag, "noise_std", cfg.magnetometer.noise_std);
+  cfg.magnetometer.coil_frequency_hz = mag.get<double>("coil_frequency_hz");
+  requirePositive(mag, "coil_frequency_hz", cfg.magnetometer.coil_frequency_hz);
+  if (cfg.magnetometer.coil_frequency_hz >= 0.5 * cfg.magnetometer.rate_hz) {
+    throw mag.error("coil_frequency_hz", "must be below the Nyquist frequency (rate_hz / 2)");
+  }
+  cfg.magnetometer.declination_deg = mag.get<double>("declination_deg", 0.0);
+  requireInRange(mag, "declination_deg", cfg.magnetometer.declination_deg, -180.0, 180.0);
+  return cfg;
+}
+
+std::string SequenceConfig::toYaml() const {
+  std::ostringstream os;
+  os << std::setprecision(12);
+  os << "# Sensor configuration (VIMS sensor data contract).\n";
+  os << "topics: {image: " << topics.image << ", imu: " << topics.imu << ", sonar: " << topics.sonar
+     << ", mag: " << topics.mag << "}\n";
+  os << "camera:\n"
+     << "  model: " << camera.model << "\n"
+     << "  width: " << camera.width << "\n"
+     << "  height: " << camera.height << "\n"
+     << "  intrinsics: [" << camera.fx << ", " << camera.fy << ", " << camera.cx << ", " << camera.cy << "]\n"
+     << "  distortion: [" << camera.distortion[0] << ", " << camera.distortion[1] << ", " << camera.distortion[2]
+     << ", " << camera.distortion[3] << "]\n"
+     << "  T_b_c: " << transformToYaml(camera.T_b_c) << "\n"
+     << "  rate_hz: " << camera.rate_hz << "\n";
+  os << "imu:\n"
+     << "  rate_hz: " << imu.rate_hz << "\n"
+     << "  gyro_noise_density: " << imu.gyro_noise_density << "\n"
+     << "  gyro_random_walk: " << imu.gyro_random_walk << "\n"
+     << "  accel_noise_density: " << imu.accel_noise_density << "\n"
+     << "  accel_random_walk: " << imu.accel_random_walk << "\n"
+     << "  gravity: " << imu.gravity << "\n";
+  os << "sonar:\n"
+     << "  T_b_s: " << transformToYaml(sonar.T_b_s) << "\n"
+     << "  rate_hz: " << sonar.rate_hz << "\n"
+     << "  range_noise_std: " << sonar.range_noise_std << "\n"
+     << "  min_range: " << sonar.min_range << "\n"
+     << "  max_range: " << sonar.max_range << "\n";
+  os << "magnetometer:\n"
+     << "  T_b_m: " << transformToYaml(magnetometer.T_b_m) << "\n"
+     << "  rate_hz: " << magnetometer.rate_hz << "\n"
+     << "  noise_std: " << magnetometer.noise_std << "\n"
+     << "  coil_frequency_hz: " << magnetometer.coil_frequency_hz << "\n"
+     << "  declination_deg: " << magnetometer.declination_deg << "\n";
+  return os.str();
+}
+
+void SequenceConfig::save(const std::string& path) const {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write sequence configuration '" + path + "'");
+  out << toYaml();
+  if (!out) throw std::runtime_error("failed while writing '" + path + "'");
+}
+
+}  // namespace vims
