@@ -1,0 +1,94 @@
+#include "vims_ros/conversions.h"
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace vims {
+namespace {
+bool finite3(double x, double y, double z) { return std::isfinite(x) && std::isfinite(y) && std::isfinite(z); }
+bool fail(std::string* why, const std::string& reason) {
+  if (why) *why = reason;
+  return false;
+}
+}  // namespace
+
+bool toImuSample(const sensor_msgs::Imu& msg, ImuSample* out, std::string* why) {
+  const auto& w = msg.angular_velocity;
+  const auto& a = msg.linear_acceleration;
+  if (!finite3(w.x, w.y, w.z)) return fail(why, "non-finite angular_velocity");
+  if (!finite3(a.x, a.y, a.z)) return fail(why, "non-finite linear_acceleration");
+  out->t = toSec(msg.header.stamp);
+  out->gyro = Eigen::Vector3d(w.x, w.y, w.z);
+  out->accel = Eigen::Vector3d(a.x, a.y, a.z);
+  return true;
+}
+
+bool toSonarRange(const sensor_msgs::Range& msg, SonarRange* out, std::string* why) {
+  if (std::isnan(msg.range)) return fail(why, "range is NaN");
+  out->t = toSec(msg.header.stamp);
+  out->range = static_cast<double>(msg.range);
+  return true;
+}
+
+bool toMagSample(const sensor_msgs::MagneticField& msg, MagSample* out, std::string* why) {
+  const auto& b = msg.magnetic_field;
+  if (!finite3(b.x, b.y, b.z)) return fail(why, "non-finite magnetic_field");
+  out->t = toSec(msg.header.stamp);
+  out->field = Eigen::Vector3d(b.x, b.y, b.z);
+  return true;
+}
+
+bool toCameraFrame(const sensor_msgs::Image& msg, int expected_width, int expected_height, CameraFrame* out,
+                   std::string* why) {
+  if (msg.width == 0 || msg.height == 0) return fail(why, "empty image");
+  if (expected_width > 0 && expected_height > 0 &&
+      (static_cast<int>(msg.width) != expected_width || static_cast<int>(msg.height) != expected_height)) {
+    return fail(why, "image is " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
+                         ", calibration says " + std::to_string(expected_width) + "x" +
+                         std::to_string(expected_height));
+  }
+  int cv_type = -1;
+  int channels = 0;
+  int bytes_per_channel = 1;
+  const std::string& enc = msg.encoding;
+  if (enc == "mono8" || enc == "8UC1") {
+    cv_type = CV_8UC1, channels = 1;
+  } else if (enc == "mono16" || enc == "16UC1") {
+    cv_type = CV_16UC1, channels = 1, bytes_per_channel = 2;
+  } else if (enc == "bgr8" || enc == "rgb8") {
+    cv_type = CV_8UC3, channels = 3;
+  } else if (enc == "bgra8" || enc == "rgba8") {
+    cv_type = CV_8UC4, channels = 4;
+  } else {
+    return fail(why, "unsupported image encoding '" + enc + "' (expected mono8, mono16, bgr8 or rgb8)");
+  }
+  const std::size_t row_bytes = static_cast<std::size_t>(msg.width) * channels * bytes_per_channel;
+  if (msg.step < row_bytes) return fail(why, "image step " + std::to_string(msg.step) + " is shorter than a row");
+  if (msg.data.size() < static_cast<std::size_t>(msg.step) * msg.height) {
+    return fail(why, "image data holds " + std::to_string(msg.data.size()) + " bytes, header says " +
+                         std::to_string(static_cast<std::size_t>(msg.step) * msg.height));
+  }
+  if (bytes_per_channel == 2 && msg.is_bigendian) return fail(why, "big-endian mono16 images are not supported");
+  // The view aliases the message buffer; every branch below produces an owned copy.
+  const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), cv_type,
+                     const_cast<uint8_t*>(msg.data.data()), msg.step);
+  cv::Mat mono;
+  if (enc == "mono8" || enc == "8UC1") {
+    mono = view.clone();
+  } else if (cv_type == CV_16UC1) {
+    view.convertTo(mono, CV_8UC1, 1.0 / 256.0);
+  } else if (enc == "bgr8") {
+    cv::cvtColor(view, mono, cv::COLOR_BGR2GRAY);
+  } else if (enc == "rgb8") {
+    cv::cvtColor(view, mono, cv::COLOR_RGB2GRAY);
+  } else if (enc == "bgra8") {
+    cv::cvtColor(view, mono, cv::COLOR_BGRA2GRAY);
+  } else {
+    cv::cvtColor(view, mono, cv::COLOR_RGBA2GRAY);
+  }
+  out->t = toSec(msg.header.stamp);
+  out->image = mono;
+  return true;
+}
+
+}  // namespace vims
