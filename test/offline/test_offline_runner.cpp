@@ -1,0 +1,143 @@
+// System tests of vims_offline: runs the built binary on a simulated sequence and on broken
+// sequence directories, and checks its outputs and error messages.
+#include <gtest/gtest.h>
+#include <ros/time.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/Imu.h>
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CommandResult runCommand(const std::string& command) {
+  CommandResult result;
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
+  if (!pipe) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe.get())) result.output += buffer.data();
+  const int status = pclose(pipe.release());
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string offlineBinary() { return std::string(VIMS_DEVEL_BIN_DIR) + "/vims_offline"; }
+
+std::string testData(const std::string& name) {
+  const char* dir = std::getenv("VIMS_TEST_DATA");
+  return dir ? std::string(dir) + "/" + name : std::string();
+}
+
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST(OfflineRunner, WritesSummaryWithMessageCountsAndRealTimeFactor) {
+  const std::string seq = testData("tank30");
+  ASSERT_FALSE(seq.empty()) << "VIMS_TEST_DATA not set (run through ctest)";
+  const fs::path out = freshDir("offline_tank30");
+  const CommandResult r = runCommand(offlineBinary() + " --quiet --sequence " + seq + " --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("VIMS_OFFLINE sequence=tank30"), std::string::npos) << r.output;
+
+  const YAML::Node summary = YAML::LoadFile((out / "summary.yaml").string());
+  const double duration = summary["sequence_duration_s"].as<double>();
+  EXPECT_NEAR(duration, 30.0, 0.5);
+  EXPECT_GT(summary["real_time_factor"].as<double>(), 1.0);
+  EXPECT_GT(summary["wall_time_s"].as<double>(), 0.0);
+  const YAML::Node messages = summary["messages"];
+  // Counts follow the contract's rates (tolerance for the first/last sample at the span ends).
+  EXPECT_NEAR(messages["/imu0"]["count"].as<double>(), 200.0 * duration, 3.0);
+  EXPECT_NEAR(messages["/mag/raw"]["count"].as<double>(), 1000.0 * duration, 5.0);
+  EXPECT_NEAR(messages["/cam0/image_raw"]["count"].as<double>(), 10.0 * duration, 2.0);
+  EXPECT_NEAR(messages["/sonar/range"]["count"].as<double>(), 10.0 * duration, 2.0);
+  EXPECT_EQ(messages["/imu0"]["type"].as<std::string>(), "sensor_msgs/Imu");
+  EXPECT_EQ(messages["/imu0"]["rejected"].as<int>(), 0);
+}
+
+TEST(OfflineRunner, MissingSequenceFilesAreNamed) {
+  const fs::path empty = freshDir("seq_empty");
+  CommandResult r = runCommand(offlineBinary() + " --quiet --sequence " + empty.string() + " --out " +
+                               (empty / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("has no bag"), std::string::npos) << r.output;
+
+  r = runCommand(offlineBinary() + " --quiet --sequence /nonexistent/seq --out /tmp/x");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
+
+  r = runCommand(offlineBinary() + " --sequence");
+  EXPECT_EQ(r.exit_code, 2);
+  r = runCommand(offlineBinary() + " --bogus");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--bogus"), std::string::npos);
+}
+
+TEST(OfflineRunner, BagWithoutATopicIsRejectedNamingTheTopic) {
+  const std::string seq = testData("tank30");
+  ASSERT_FALSE(seq.empty());
+  const fs::path dir = freshDir("imu_only");
+  fs::copy_file(fs::path(seq) / "tank30.yaml", dir / "imu_only.yaml");
+  {
+    rosbag::Bag bag((dir / "imu_only.bag").string(), rosbag::bagmode::Write);
+    for (int i = 0; i < 10; ++i) {
+      sensor_msgs::Imu msg;
+      msg.header.stamp = ros::Time(100.0 + 0.005 * i);
+      msg.linear_acceleration.z = 9.81;
+      bag.write("/imu0", msg.header.stamp, msg);
+    }
+  }
+  const CommandResult r =
+      runCommand(offlineBinary() + " --quiet --sequence " + dir.string() + " --out " + (dir / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("has no topic '/cam0/image_raw'"), std::string::npos) << r.output;
+}
+
+TEST(OfflineRunner, BadSequenceYamlAndConfigKeysAreNamed) {
+  const std::string seq = testData("tank30");
+  ASSERT_FALSE(seq.empty());
+  const fs::path dir = freshDir("bad_yaml");
+  fs::copy_file(fs::path(seq) / "tank30.bag", dir / "bad_yaml.bag");
+  {
+    std::ifstream in(fs::path(seq) / "tank30.yaml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto pos = text.find("  rate_hz: 200");
+    ASSERT_NE(pos, std::string::npos);
+    text.replace(pos, 14, "  rate_hz: -200");
+    std::ofstream(dir / "bad_yaml.yaml") << text;
+  }
+  CommandResult r =
+      runCommand(offlineBinary() + " --quiet --sequence " + dir.string() + " --out " + (dir / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("imu.rate_hz"), std::string::npos) << r.output;
+
+  const fs::path config = dir / "config.yaml";
+  std::ofstream(config) << "no_such_section: {a: 1}\n";
+  r = runCommand(offlineBinary() + " --quiet --sequence " + seq + " --config " + config.string() + " --out " +
+                 (dir / "out2").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("no_such_section"), std::string::npos) << r.output;
+}
+
+int main(int argc, char** argv) {
+  ros::Time::init();
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
