@@ -1,0 +1,67 @@
+#pragma once
+/// @file revisit.h
+/// @brief Revisit events: the places where a loop closure was possible, found from the
+/// ground truth alone, and which of them the loop-closure module actually closed.
+///
+/// Definition. A ground-truth sample i is *revisiting* when some earlier sample j with
+/// t_j <= t_i - min_gap_s lies within radius_m of it horizontally (x-y distance; depth is
+/// ignored because a downward camera and the magnetic map see the same place from any depth).
+/// A revisit event is a maximal run of consecutive revisiting samples, reported as the time
+/// interval [t_start, t_end]. An event is *closed* when at least one accepted and correct loop
+/// has t_query inside [t_start - margin_s, t_end + margin_s].
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "vims_common/trajectory_io.h"
+#include "vims_eval/loops.h"
+
+namespace vims {
+namespace eval {
+
+struct RevisitOptions {
+  double radius_m = 1.5;   ///< horizontal distance to an earlier position
+  double min_gap_s = 60.0; ///< how much earlier that position must have been occupied
+  double margin_s = 0.0;   ///< slack around an event when looking for a closing loop
+};
+
+struct RevisitEvent {
+  double t_start = 0.0;
+  double t_end = 0.0;
+  std::size_t first_index = 0;  ///< ground-truth sample indices of the run (inclusive)
+  std::size_t last_index = 0;
+  double t_previous = 0.0;      ///< time of an earlier visit within radius_m of the first sample
+  Eigen::Vector3d p_w_start = Eigen::Vector3d::Zero();
+  bool closed = false;
+  double t_closing_query = 0.0;  ///< t_query of the first correct accepted loop in the event (if closed)
+};
+
+/// Finds the revisit events of a ground-truth trajectory (sorted by time). Uses a horizontal
+/// grid of cell size radius_m, so long sequences cost O(n) neighbour look-ups.
+std::vector<RevisitEvent> detectRevisitEvents(const std::vector<StampedPose>& gt, const RevisitOptions& options);
+
+/// Sets `closed` / `t_closing_query` of each event from the accepted, correct loops of `score`.
+void markClosedEvents(const LoopScore& score, double margin_s, std::vector<RevisitEvent>* events);
+
+struct RevisitSummary {
+  std::size_t events = 0;
+  std::size_t closed = 0;
+  /// closed / events in percent (0 when there is no event).
+  double closedPercent() const { return events == 0 ? 0.0 : 100.0 * static_cast<double>(closed) / events; }
+};
+
+RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events);
+
+/// Everything `vims_eval loops` reports: the scored log and the revisit events it closed.
+struct LoopEvaluation {
+  LoopScore score;
+  std::vector<RevisitEvent> events;
+  RevisitSummary revisits;
+};
+
+/// scoreLoops + detectRevisitEvents + markClosedEvents.
+LoopEvaluation evaluateLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
+                             const LoopScoringOptions& loop_options, const RevisitOptions& revisit_options);
+
+}  // namespace eval
+}  // namespace vims

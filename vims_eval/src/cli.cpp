@@ -1,0 +1,310 @@
+#include "vims_eval/cli.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "vims_common/config_reader.h"
+#include "vims_common/sequence_paths.h"
+#include "vims_common/trajectory_io.h"
+#include "vims_eval/eval_options.h"
+#include "vims_eval/loops.h"
+#include "vims_eval/metrics.h"
+#include "vims_eval/report.h"
+#include "vims_eval/revisit.h"
+
+namespace fs = std::filesystem;
+
+namespace vims {
+namespace eval {
+namespace {
+
+/// A command-line mistake: reported with a hint to --help and exit code 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Options shared by the subcommands; `true` = takes a value.
+const std::map<std::string, bool> kTrajectoryOptions = {
+    {"align", true}, {"max-dt", true}, {"interpolate", false}, {"max-gt-gap", true}, {"rpe-delta", true}};
+const std::map<std::string, bool> kLoopOptions = {{"trans-tol", true},      {"rot-tol-deg", true},
+                                                  {"revisit-radius", true}, {"revisit-gap", true},
+                                                  {"revisit-margin", true}, {"max-gt-gap", true}};
+
+/// Parsed `--name value` / `--flag` arguments of one subcommand.
+class Args {
+ public:
+  Args(const std::vector<std::string>& args, std::size_t first, const std::map<std::string, bool>& allowed,
+       const std::string& command) {
+    for (std::size_t i = first; i < args.size(); ++i) {
+      const std::string& a = args[i];
+      if (a.size() < 3 || a.compare(0, 2, "--") != 0)
+        throw UsageError(command + ": unexpected argument '" + a + "'");
+      const std::string name = a.substr(2);
+      const auto spec = allowed.find(name);
+      if (spec == allowed.end()) throw UsageError(command + ": unknown option '" + a + "'");
+      if (values_.count(name)) throw UsageError(command + ": option '" + a + "' given twice");
+      if (spec->second) {
+        if (i + 1 >= args.size()) throw UsageError(command + ": option '" + a + "' needs a value");
+        values_[name] = args[++i];
+      } else {
+        values_[name] = "";
+      }
+    }
+  }
+
+  bool has(const std::string& name) const { return values_.count(name) > 0; }
+
+  std::string required(const std::string& name, const std::string& command) const {
+    if (!has(name)) throw UsageError(command + ": option --" + name + " is required");
+    return values_.at(name);
+  }
+  std::string get(const std::string& name, const std::string& fallback) const {
+    return has(name) ? values_.at(name) : fallback;
+  }
+
+  /// Overwrites *value with the option's number when given; rejects text and non-finite values.
+  void number(const std::string& name, double* value) const {
+    if (!has(name)) return;
+    const std::string& text = values_.at(name);
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
+      throw UsageError("option --" + name + ": '" + text + "' is not a number");
+    *value = v;
+  }
+
+ private:
+  std::map<std::string, std::string> values_;
+};
+
+std::map<std::string, bool> merge(std::initializer_list<std::map<std::string, bool>> parts) {
+  std::map<std::string, bool> out;
+  for (const auto& p : parts) out.insert(p.begin(), p.end());
+  return out;
+}
+
+/// Defaults, then the `eval:` section of --config, then the individual flags.
+EvalOptions optionsFrom(const Args& args) {
+  EvalOptions o;
+  if (args.has("config")) o = EvalOptions::fromReader(ConfigReader::fromFile(args.get("config", "")).child("eval"));
+  auto& assoc = o.trajectory.association;
+  args.number("max-dt", &assoc.max_dt_s);
+  if (args.has("interpolate")) assoc.interpolate = true;
+  args.number("max-gt-gap", &assoc.max_gt_gap_s);
+  o.loops.max_gt_gap_s = assoc.max_gt_gap_s;
+  if (args.has("align")) {
+    try {
+      o.trajectory.alignments = parseAlignmentList(args.get("align", ""));
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("option --align: ") + e.what());
+    }
+  }
+  args.number("rpe-delta", &o.trajectory.rpe_delta_m);
+  args.number("trans-tol", &o.loops.trans_tol_m);
+  args.number("rot-tol-deg", &o.loops.rot_tol_deg);
+  args.number("revisit-radius", &o.revisit.radius_m);
+  args.number("revisit-gap", &o.revisit.min_gap_s);
+  args.number("revisit-margin", &o.revisit.margin_s);
+  try {
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  return o;
+}
+
+std::vector<StampedPose> readTrajectory(const std::string& path, const char* what) {
+  if (!fs::exists(path)) throw std::runtime_error(std::string(what) + " file '" + path + "' does not exist");
+  std::vector<StampedPose> poses = readTumFile(path);
+  if (poses.empty()) throw std::runtime_error(std::string(what) + " file '" + path + "' holds no pose");
+  return poses;
+}
+
+int commandTraj(const std::vector<std::string>& argv, std::ostream& out) {
+  const Args args(argv, 1, merge({kTrajectoryOptions, {{"gt", true}, {"est", true}, {"plots", true},
+                                                       {"label", true}, {"config", true}}}),
+                  "traj");
+  const std::string gt_path = args.required("gt", "traj");
+  const std::string est_path = args.required("est", "traj");
+  const EvalOptions options = optionsFrom(args);
+  const std::string label = args.get("label", fs::path(est_path).stem().string());
+  const auto gt = readTrajectory(gt_path, "ground-truth");
+  const auto est = readTrajectory(est_path, "estimate");
+  const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options.trajectory, label);
+  printTrajectoryReport(out, ev);
+  if (args.has("plots"))
+    for (const auto& path : writeTrajectoryPlots(ev, args.get("plots", ""))) out << "   plot: " << path << "\n";
+  out << trajectorySummaryLine(ev) << std::endl;
+  return kExitOk;
+}
+
+int commandLoops(const std::vector<std::string>& argv, std::ostream& out) {
+  const Args args(argv, 1, merge({kLoopOptions, {{"gt", true}, {"loops", true}, {"plots", true}, {"config", true}}}),
+                  "loops");
+  const std::string gt_path = args.required("gt", "loops");
+  const std::string loops_path = args.required("loops", "loops");
+  const EvalOptions options = optionsFrom(args);
+  const auto gt = readTrajectory(gt_path, "ground-truth");
+  const auto records = readLoopCsv(loops_path);
+  const LoopEvaluation ev = evaluateLoops(records, gt, options.loops, options.revisit);
+  printLoopReport(out, ev, options.loops, options.revisit);
+  if (args.has("plots"))
+    for (const auto& path : writeLoopPlots(gt, ev, args.get("plots", ""))) out << "   plot: " << path << "\n";
+  out << loopSummaryLine(ev) << std::endl;
+  return kExitOk;
+}
+
+int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args(argv, 1,
+                  merge({kTrajectoryOptions, kLoopOptions, {{"sequence", true}, {"out", true}, {"config", true}}}),
+                  "run");
+  const std::string seq_dir = args.required("sequence", "run");
+  const std::string out_dir = args.required("out", "run");
+  const EvalOptions options = optionsFrom(args);
+  const SequencePaths seq = SequencePaths::resolve(seq_dir);
+  if (seq.gt.empty())
+    throw std::runtime_error("sequence '" + seq_dir + "' has no ground truth '" + seq.name + "_gt.tum'");
+  if (!fs::is_directory(out_dir)) throw std::runtime_error("output directory '" + out_dir + "' does not exist");
+
+  // The estimator's outputs that are evaluated when present (see docs/evaluation.md).
+  const std::vector<std::string> estimate_names = {"vio", "global"};
+  const std::string loops_path = (fs::path(out_dir) / "loops.csv").string();
+  std::vector<std::string> present;
+  for (const auto& name : estimate_names)
+    if (fs::exists(fs::path(out_dir) / (name + ".tum"))) present.push_back(name);
+  const bool have_loops = fs::exists(loops_path);
+  if (present.empty() && !have_loops)
+    throw std::runtime_error("nothing to evaluate in '" + out_dir + "' (expected vio.tum, global.tum or loops.csv)");
+
+  const auto gt = readTrajectory(seq.gt, "ground-truth");
+  const std::string plot_dir = (fs::path(out_dir) / "plots").string();
+  YAML::Node root;
+  root["sequence"] = seq.name;
+  root["sequence_dir"] = seq.dir;
+  root["ground_truth"] = seq.gt;
+  root["output_dir"] = out_dir;
+  root["options"] = YAML::Load(options.toYaml());
+  YAML::Node plots(YAML::NodeType::Sequence);
+  std::vector<std::string> summaries;
+  bool failed = false;
+
+  YAML::Node trajectories;
+  for (const auto& name : present) {
+    const std::string path = (fs::path(out_dir) / (name + ".tum")).string();
+    try {
+      const auto est = readTrajectory(path, "estimate");
+      const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options.trajectory, name);
+      printTrajectoryReport(out, ev);
+      YAML::Node node = trajectoryToYaml(ev);
+      node["file"] = path;
+      trajectories[name] = node;
+      for (const auto& p : writeTrajectoryPlots(ev, plot_dir)) plots.push_back(p);
+      summaries.push_back(trajectorySummaryLine(ev));
+    } catch (const std::exception& e) {
+      // One broken estimate must not hide the figures of the others; the exit code says it.
+      err << "vims_eval run: " << name << ": " << e.what() << "\n";
+      YAML::Node node;
+      node["file"] = path;
+      node["error"] = e.what();
+      trajectories[name] = node;
+      failed = true;
+    }
+  }
+  if (!present.empty()) root["trajectories"] = trajectories;
+
+  if (have_loops) {
+    try {
+      const LoopEvaluation ev = evaluateLoops(readLoopCsv(loops_path), gt, options.loops, options.revisit);
+      printLoopReport(out, ev, options.loops, options.revisit);
+      YAML::Node node = loopsToYaml(ev, options.loops, options.revisit);
+      node["file"] = loops_path;
+      root["loops"] = node;
+      for (const auto& p : writeLoopPlots(gt, ev, plot_dir)) plots.push_back(p);
+      summaries.push_back(loopSummaryLine(ev));
+    } catch (const std::exception& e) {
+      err << "vims_eval run: loops: " << e.what() << "\n";
+      YAML::Node node;
+      node["file"] = loops_path;
+      node["error"] = e.what();
+      root["loops"] = node;
+      failed = true;
+    }
+  }
+  root["plots"] = plots;
+  const std::string yaml_path = (fs::path(out_dir) / "eval.yaml").string();
+  writeYamlFile(yaml_path, root);
+  out << "   wrote " << yaml_path << " and " << plots.size() << " plots in " << plot_dir << "\n";
+  for (const auto& line : summaries) out << line << "\n";
+  out.flush();
+  return failed ? kExitFailure : kExitOk;
+}
+
+bool wantsHelp(const std::vector<std::string>& args) {
+  for (const auto& a : args)
+    if (a == "--help" || a == "-h") return true;
+  return false;
+}
+
+}  // namespace
+
+std::string evalUsage() {
+  return R"(vims_eval: trajectory and loop-closure evaluation against ground truth (docs/evaluation.md)
+
+usage:
+  vims_eval traj --gt GT.tum --est EST.tum [--align se3|sim3|posyaw|none|all] [--max-dt 0.01]
+                 [--interpolate] [--max-gt-gap 0.5] [--rpe-delta 10] [--plots DIR] [--label NAME]
+                 [--config FILE]
+  vims_eval loops --gt GT.tum --loops loops.csv [--trans-tol 0.5] [--rot-tol-deg 5]
+                  [--revisit-radius 1.5] [--revisit-gap 60] [--revisit-margin 0] [--plots DIR]
+                  [--config FILE]
+  vims_eval run --sequence DIR --out OUT [any option of traj and loops except --gt/--est/--loops/--plots/--label]
+
+  traj   associate, align and report ATE (m and % of distance), rotation RMSE, RPE per 10 m, Sim3
+         scale; the last line is 'VIMS_EVAL key=value ...'. --align defaults to all (se3 first).
+  loops  score loops.csv (correct: within --trans-tol m and --rot-tol-deg deg of the ground truth's
+         T_match_query), find revisit events in the ground truth; last line 'VIMS_EVAL_LOOPS ...'.
+  run    evaluate OUT/vio.tum, OUT/global.tum and OUT/loops.csv (those present) against the
+         sequence's <seq>_gt.tum; writes OUT/eval.yaml and OUT/plots/*.png.
+  --config FILE reads the 'eval:' section of a YAML file first; flags override it.
+
+exit status: 0 ok, 1 evaluation failed (missing or malformed input, no association), 2 bad usage.
+)";
+}
+
+int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty()) {
+    err << evalUsage();
+    return kExitUsage;
+  }
+  if (wantsHelp(args)) {
+    out << evalUsage();
+    return kExitOk;
+  }
+  const std::string& command = args.front();
+  try {
+    if (command == "traj") return commandTraj(args, out);
+    if (command == "loops") return commandLoops(args, out);
+    if (command == "run") return commandRun(args, out, err);
+    throw UsageError("unknown command '" + command + "' (expected traj, loops or run)");
+  } catch (const UsageError& e) {
+    err << "vims_eval: " << e.what() << "\n(see vims_eval --help)\n";
+    return kExitUsage;
+  } catch (const ConfigError& e) {
+    err << "vims_eval: configuration error: " << e.what() << "\n";
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    err << "vims_eval " << command << ": error: " << e.what() << "\n";
+    return kExitFailure;
+  }
+}
+
+}  // namespace eval
+}  // namespace vims

@@ -1,0 +1,115 @@
+#include "vims_eval/revisit.h"
+
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace vims {
+namespace eval {
+namespace {
+
+/// Horizontal hash grid of ground-truth sample indices, cell size = search radius, so a
+/// radius query only visits the 3x3 cells around the query point.
+class HorizontalGrid {
+ public:
+  explicit HorizontalGrid(double cell_m) : cell_m_(cell_m) {}
+
+  void insert(const Eigen::Vector3d& p_w, std::size_t index) { cells_[key(cellOf(p_w.x()), cellOf(p_w.y()))].push_back(index); }
+
+  /// Any inserted index within radius_m (horizontally) of p_w, or nullopt.
+  std::optional<std::size_t> findWithin(const Eigen::Vector3d& p_w, double radius_m,
+                                        const std::vector<StampedPose>& poses) const {
+    const long cx = cellOf(p_w.x());
+    const long cy = cellOf(p_w.y());
+    const double r2 = radius_m * radius_m;
+    for (long dx = -1; dx <= 1; ++dx) {
+      for (long dy = -1; dy <= 1; ++dy) {
+        const auto it = cells_.find(key(cx + dx, cy + dy));
+        if (it == cells_.end()) continue;
+        for (std::size_t j : it->second)
+          if ((poses[j].p.head<2>() - p_w.head<2>()).squaredNorm() <= r2) return j;
+      }
+    }
+    return std::nullopt;
+  }
+
+ private:
+  long cellOf(double v) const { return static_cast<long>(std::floor(v / cell_m_)); }
+  static long long key(long cx, long cy) {
+    // Cells are bounded by |position| / radius, far below 2^31 for any real survey.
+    return (static_cast<long long>(cx) << 32) ^ static_cast<long long>(static_cast<unsigned int>(cy));
+  }
+
+  double cell_m_;
+  std::unordered_map<long long, std::vector<std::size_t>> cells_;
+};
+
+}  // namespace
+
+std::vector<RevisitEvent> detectRevisitEvents(const std::vector<StampedPose>& gt, const RevisitOptions& options) {
+  if (!(options.radius_m > 0.0)) throw std::invalid_argument("revisit: radius must be positive");
+  if (!(options.min_gap_s >= 0.0)) throw std::invalid_argument("revisit: gap must be non-negative");
+  std::vector<RevisitEvent> events;
+  HorizontalGrid grid(options.radius_m);
+  std::size_t next_to_insert = 0;  // samples [0, next_to_insert) are old enough and in the grid
+  std::optional<RevisitEvent> open;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    // Time is increasing, so the set of "old enough" samples only grows.
+    while (next_to_insert < i && gt[next_to_insert].t <= gt[i].t - options.min_gap_s) {
+      grid.insert(gt[next_to_insert].p, next_to_insert);
+      ++next_to_insert;
+    }
+    const std::optional<std::size_t> earlier = grid.findWithin(gt[i].p, options.radius_m, gt);
+    if (earlier) {
+      if (!open) {
+        open = RevisitEvent{};
+        open->t_start = gt[i].t;
+        open->first_index = i;
+        open->t_previous = gt[*earlier].t;
+        open->p_w_start = gt[i].p;
+      }
+      open->t_end = gt[i].t;
+      open->last_index = i;
+    } else if (open) {
+      events.push_back(*open);
+      open.reset();
+    }
+  }
+  if (open) events.push_back(*open);
+  return events;
+}
+
+void markClosedEvents(const LoopScore& score, double margin_s, std::vector<RevisitEvent>* events) {
+  for (auto& event : *events) {
+    event.closed = false;
+    for (const auto& loop : score.loops) {
+      if (!loop.record.accepted || !loop.has_gt || !loop.within_tolerance) continue;
+      const double t = loop.record.t_query;
+      if (t < event.t_start - margin_s || t > event.t_end + margin_s) continue;
+      if (!event.closed || t < event.t_closing_query) event.t_closing_query = t;
+      event.closed = true;
+    }
+  }
+}
+
+RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events) {
+  RevisitSummary s;
+  s.events = events.size();
+  for (const auto& e : events)
+    if (e.closed) ++s.closed;
+  return s;
+}
+
+LoopEvaluation evaluateLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
+                             const LoopScoringOptions& loop_options, const RevisitOptions& revisit_options) {
+  LoopEvaluation ev;
+  ev.score = scoreLoops(records, gt, loop_options);
+  ev.events = detectRevisitEvents(gt, revisit_options);
+  markClosedEvents(ev.score, revisit_options.margin_s, &ev.events);
+  ev.revisits = summarizeRevisits(ev.events);
+  return ev;
+}
+
+}  // namespace eval
+}  // namespace vims
