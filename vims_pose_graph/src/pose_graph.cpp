@@ -1,0 +1,467 @@
+#include "vims_pose_graph/pose_graph.h"
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "vims_pose_graph/angles.h"
+
+namespace vims {
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+constexpr const char* kComponent = "pose_graph";
+
+std::unique_ptr<ceres::LossFunction> makeLoss(RobustLoss loss, double scale) {
+  // Ceres' scale `a` is in units of the whitened residual norm: quadratic below a sigmas.
+  switch (loss) {
+    case RobustLoss::kHuber:
+      return std::make_unique<ceres::HuberLoss>(scale);
+    case RobustLoss::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(scale);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+bool isRotation(const Eigen::Matrix3d& R) {
+  return R.allFinite() && (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 &&
+         R.determinant() > 0.0;
+}
+
+bool isValidPose(const Eigen::Isometry3d& T) { return T.translation().allFinite() && isRotation(T.linear()); }
+}  // namespace
+
+std::string toString(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kHuber:
+      return "huber";
+    case RobustLoss::kCauchy:
+      return "cauchy";
+    case RobustLoss::kNone:
+      break;
+  }
+  return "none";
+}
+
+RobustLoss robustLossFromString(const std::string& name) {
+  if (name == "none") return RobustLoss::kNone;
+  if (name == "huber") return RobustLoss::kHuber;
+  if (name == "cauchy") return RobustLoss::kCauchy;
+  throw std::invalid_argument("unknown robust loss '" + name + "' (expected none, huber or cauchy)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Options
+// ---------------------------------------------------------------------------------------------
+
+PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
+  reader.rejectUnknownKeys({"odometry_position_sigma_m", "odometry_position_sigma_per_m", "odometry_yaw_sigma_deg",
+                            "odometry_yaw_sigma_per_m_deg", "loop_position_sigma_m", "loop_yaw_sigma_deg", "loop_loss",
+                            "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
+                            "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads"});
+  PoseGraphOptions o;
+  auto positive = [&](const char* key, double fallback) {
+    const double v = reader.get<double>(key, fallback);
+    requirePositive(reader, key, v);
+    return v;
+  };
+  auto nonNegative = [&](const char* key, double fallback) {
+    const double v = reader.get<double>(key, fallback);
+    requireNonNegative(reader, key, v);
+    return v;
+  };
+  auto loss = [&](const char* key, RobustLoss fallback) {
+    const std::string name = reader.get<std::string>(key, toString(fallback));
+    try {
+      return robustLossFromString(name);
+    } catch (const std::invalid_argument& e) {
+      throw reader.error(key, e.what());
+    }
+  };
+  o.odometry_position_sigma_m = positive("odometry_position_sigma_m", o.odometry_position_sigma_m);
+  o.odometry_position_sigma_per_m = nonNegative("odometry_position_sigma_per_m", o.odometry_position_sigma_per_m);
+  o.odometry_yaw_sigma_rad = kDeg * positive("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_rad / kDeg);
+  o.odometry_yaw_sigma_per_m_rad = kDeg * nonNegative("odometry_yaw_sigma_per_m_deg", o.odometry_yaw_sigma_per_m_rad / kDeg);
+  o.loop_position_sigma_m = positive("loop_position_sigma_m", o.loop_position_sigma_m);
+  o.loop_yaw_sigma_rad = kDeg * positive("loop_yaw_sigma_deg", o.loop_yaw_sigma_rad / kDeg);
+  o.loop_loss = loss("loop_loss", o.loop_loss);
+  o.loop_loss_scale = positive("loop_loss_scale", o.loop_loss_scale);
+  o.mag_yaw_sigma_rad = kDeg * positive("mag_yaw_sigma_deg", o.mag_yaw_sigma_rad / kDeg);
+  requireInRange(reader, "mag_yaw_sigma_deg", o.mag_yaw_sigma_rad / kDeg, 1e-6, 180.0);
+  o.mag_loss = loss("mag_loss", o.mag_loss);
+  o.mag_loss_scale = positive("mag_loss_scale", o.mag_loss_scale);
+  o.mag_min_horizontal_field_tesla = nonNegative("mag_min_horizontal_field_tesla", o.mag_min_horizontal_field_tesla);
+  requireInRange(reader, "mag_min_horizontal_field_tesla", o.mag_min_horizontal_field_tesla, 0.0, 1e-3);
+  o.max_iterations = reader.get<int>("max_iterations", o.max_iterations);
+  requireInRange(reader, "max_iterations", o.max_iterations, 1, 10000);
+  o.max_solver_time_s = nonNegative("max_solver_time_s", o.max_solver_time_s);
+  o.num_threads = reader.get<int>("num_threads", o.num_threads);
+  requireInRange(reader, "num_threads", o.num_threads, 1, 64);
+  return o;
+}
+
+void PoseGraphOptions::validate() const {
+  auto check = [](bool ok, const char* field) {
+    if (!ok) throw std::invalid_argument(std::string("PoseGraphOptions: invalid ") + field);
+  };
+  check(odometry_position_sigma_m > 0.0, "odometry_position_sigma_m");
+  check(odometry_position_sigma_per_m >= 0.0, "odometry_position_sigma_per_m");
+  check(odometry_yaw_sigma_rad > 0.0, "odometry_yaw_sigma_rad");
+  check(odometry_yaw_sigma_per_m_rad >= 0.0, "odometry_yaw_sigma_per_m_rad");
+  check(loop_position_sigma_m > 0.0, "loop_position_sigma_m");
+  check(loop_yaw_sigma_rad > 0.0, "loop_yaw_sigma_rad");
+  check(loop_loss_scale > 0.0, "loop_loss_scale");
+  check(mag_yaw_sigma_rad > 0.0 && mag_yaw_sigma_rad <= M_PI, "mag_yaw_sigma_rad");
+  check(mag_loss_scale > 0.0, "mag_loss_scale");
+  check(mag_min_horizontal_field_tesla >= 0.0, "mag_min_horizontal_field_tesla");
+  check(max_iterations >= 1, "max_iterations");
+  check(max_solver_time_s >= 0.0, "max_solver_time_s");
+  check(num_threads >= 1, "num_threads");
+}
+
+std::string PoseGraphOptions::toYaml() const {
+  std::ostringstream os;
+  os.precision(10);
+  os << "odometry_position_sigma_m: " << odometry_position_sigma_m << "\n"
+     << "odometry_position_sigma_per_m: " << odometry_position_sigma_per_m << "\n"
+     << "odometry_yaw_sigma_deg: " << odometry_yaw_sigma_rad / kDeg << "\n"
+     << "odometry_yaw_sigma_per_m_deg: " << odometry_yaw_sigma_per_m_rad / kDeg << "\n"
+     << "loop_position_sigma_m: " << loop_position_sigma_m << "\n"
+     << "loop_yaw_sigma_deg: " << loop_yaw_sigma_rad / kDeg << "\n"
+     << "loop_loss: " << toString(loop_loss) << "\n"
+     << "loop_loss_scale: " << loop_loss_scale << "\n"
+     << "mag_yaw_sigma_deg: " << mag_yaw_sigma_rad / kDeg << "\n"
+     << "mag_loss: " << toString(mag_loss) << "\n"
+     << "mag_loss_scale: " << mag_loss_scale << "\n"
+     << "mag_min_horizontal_field_tesla: " << mag_min_horizontal_field_tesla << "\n"
+     << "max_iterations: " << max_iterations << "\n"
+     << "max_solver_time_s: " << max_solver_time_s << "\n"
+     << "num_threads: " << num_threads << "\n";
+  return os.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Graph
+// ---------------------------------------------------------------------------------------------
+
+Eigen::Isometry3d PoseGraphNode::T_w_b() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = rotationFromYawPitchRoll(yaw_w_b, pitch, roll);
+  T.translation() = p_w_b;
+  return T;
+}
+
+PoseGraph4Dof::PoseGraph4Dof(const PoseGraphOptions& options, const MagnetometerCalibration& magnetometer,
+                             LoggerPtr logger)
+    : options_(options),
+      north_enu_(magneticNorthEnu(magnetometer.declination_deg * kDeg)),
+      R_b_m_(magnetometer.T_b_m.linear()),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()) {
+  options_.validate();
+  if (!std::isfinite(magnetometer.declination_deg) || !isRotation(R_b_m_))
+    throw std::invalid_argument("PoseGraph4Dof: invalid magnetometer calibration (declination or T_b_m)");
+}
+
+void PoseGraph4Dof::checkNode(PoseGraphNodeId id, const char* what) const {
+  if (id >= nodes_.size())
+    throw std::invalid_argument(std::string("PoseGraph4Dof: ") + what + ": unknown node " + std::to_string(id) +
+                                " (graph has " + std::to_string(nodes_.size()) + ")");
+}
+
+PoseGraphNodeId PoseGraph4Dof::addNode(double t, const Eigen::Isometry3d& T_odom_b) {
+  if (!std::isfinite(t) || !isValidPose(T_odom_b))
+    throw std::invalid_argument("PoseGraph4Dof::addNode: non-finite time or invalid VIO pose");
+  if (!nodes_.empty() && t < nodes_.back().t)
+    throw std::invalid_argument("PoseGraph4Dof::addNode: time goes backwards (" + std::to_string(t) + " < " +
+                                std::to_string(nodes_.back().t) + ")");
+  const YawPitchRoll ypr = yawPitchRollFromRotation(T_odom_b.linear());
+  PoseGraphNode n;
+  n.t = t;
+  n.T_odom_b = T_odom_b;
+  n.pitch = ypr.pitch;
+  n.roll = ypr.roll;
+  // Start from the latest drift correction, so a new keyframe lands where the corrected map
+  // expects it instead of where the drifting VIO puts it.
+  const Eigen::Isometry3d T_map_odom_latest = T_map_odom();
+  n.p_w_b = T_map_odom_latest * T_odom_b.translation();
+  n.yaw_w_b = wrapAngle(ypr.yaw + yawPitchRollFromRotation(T_map_odom_latest.linear()).yaw);
+  nodes_.push_back(n);
+  return static_cast<PoseGraphNodeId>(nodes_.size() - 1);
+}
+
+void PoseGraph4Dof::addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to) {
+  checkNode(from, "addSequentialEdge");
+  checkNode(to, "addSequentialEdge");
+  if (from == to) throw std::invalid_argument("PoseGraph4Dof::addSequentialEdge: from == to");
+  SequentialEdge e;
+  e.from = from;
+  e.to = to;
+  e.measurement = relativePose4DofFromPoses(nodes_[from].T_odom_b, nodes_[to].T_odom_b);
+  const double d = e.measurement.p_li_j.norm();
+  const double sigma_p = std::hypot(options_.odometry_position_sigma_m, options_.odometry_position_sigma_per_m * d);
+  const double sigma_yaw = std::hypot(options_.odometry_yaw_sigma_rad, options_.odometry_yaw_sigma_per_m_rad * d);
+  e.sqrt_information << 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_yaw;
+  sequential_edges_.push_back(e);
+}
+
+LoopEdgeId PoseGraph4Dof::addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query,
+                                      const Eigen::Isometry3d& T_match_query) {
+  checkNode(match, "addLoopEdge");
+  checkNode(query, "addLoopEdge");
+  if (match == query) throw std::invalid_argument("PoseGraph4Dof::addLoopEdge: match == query");
+  if (!isValidPose(T_match_query)) throw std::invalid_argument("PoseGraph4Dof::addLoopEdge: invalid relative pose");
+  LoopEdge e;
+  e.id = next_loop_id_++;
+  e.match = match;
+  e.query = query;
+  e.T_match_query = T_match_query;
+  e.measurement = relativePose4DofFromRelative(T_match_query, nodes_[match].pitch, nodes_[match].roll);
+  const double ip = 1.0 / options_.loop_position_sigma_m;
+  e.sqrt_information << ip, ip, ip, 1.0 / options_.loop_yaw_sigma_rad;
+  loop_edges_.push_back(e);
+  return e.id;
+}
+
+bool PoseGraph4Dof::setLoopEdgeEnabled(LoopEdgeId id, bool enabled) {
+  auto it = std::find_if(loop_edges_.begin(), loop_edges_.end(), [id](const LoopEdge& e) { return e.id == id; });
+  if (it == loop_edges_.end()) return false;
+  it->enabled = enabled;
+  return true;
+}
+
+bool PoseGraph4Dof::removeLoopEdge(LoopEdgeId id) {
+  auto it = std::find_if(loop_edges_.begin(), loop_edges_.end(), [id](const LoopEdge& e) { return e.id == id; });
+  if (it == loop_edges_.end()) return false;
+  loop_edges_.erase(it);
+  return true;
+}
+
+bool PoseGraph4Dof::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3d& B_m_geomagnetic) {
+  checkNode(node, "addYawMeasurement");
+  const PoseGraphNode& n = nodes_[node];
+  const Eigen::Vector3d B_b = R_b_m_ * B_m_geomagnetic;
+  YawMeasurement m;
+  m.node = node;
+  double horizontal = 0.0;
+  if (!levelledFieldDirection(B_b, n.pitch, n.roll, options_.mag_min_horizontal_field_tesla, &m.u_l, &horizontal)) {
+    logger_->warnThrottled(kComponent, "yaw_rejected", n.t, 10.0,
+                           VIMS_STR("geomagnetic yaw measurement rejected at t=" << n.t << ": "
+                                    << (B_b.allFinite() ? "horizontal field " : "non-finite field ")
+                                    << horizontal << " T below " << options_.mag_min_horizontal_field_tesla << " T"));
+    return false;
+  }
+  m.heading_rad = headingFromLevelledField(m.u_l, north_enu_);
+  if (yaw_measurements_.empty()) {
+    // First absolute heading: rotate the graph about node 0 so this node has the measured yaw.
+    // The VIO's yaw is arbitrary, so the graph may start up to 180 deg off, where the chordal
+    // residual's gradient vanishes; this puts the solver in the right basin.
+    const double d_yaw = wrapAngle(m.heading_rad - n.yaw_w_b);
+    const Eigen::Vector3d p0 = nodes_[0].p_w_b;
+    correctNodes(0, d_yaw, p0 - rotationZ(d_yaw) * p0);
+    logger_->info(kComponent, VIMS_STR("first geomagnetic heading " << m.heading_rad / kDeg
+                                       << " deg: graph rotated by " << d_yaw / kDeg << " deg"));
+  }
+  yaw_measurements_.push_back(m);
+  return true;
+}
+
+void PoseGraph4Dof::correctNodes(size_t first, double d_yaw, const Eigen::Vector3d& t_corr) {
+  const Eigen::Matrix3d R = rotationZ(d_yaw);
+  for (size_t i = first; i < nodes_.size(); ++i) {
+    nodes_[i].p_w_b = R * nodes_[i].p_w_b + t_corr;
+    nodes_[i].yaw_w_b = wrapAngle(nodes_[i].yaw_w_b + d_yaw);
+  }
+}
+
+std::vector<Eigen::Isometry3d> PoseGraph4Dof::worldPoses() const {
+  std::vector<Eigen::Isometry3d> out;
+  out.reserve(nodes_.size());
+  for (const PoseGraphNode& n : nodes_) out.push_back(n.T_w_b());
+  return out;
+}
+
+Eigen::Isometry3d PoseGraph4Dof::T_map_odom(PoseGraphNodeId id) const {
+  checkNode(id, "T_map_odom");
+  const PoseGraphNode& n = nodes_[id];
+  // T_w_b T_odom_b^-1 = [Rz(yaw_w) R_rp R_rp^T Rz(yaw_odom)^T | ...] = [Rz(yaw_w - yaw_odom) | t]:
+  // computed from the yaws directly so the result is exactly 4-DoF.
+  const double yaw_odom = yawPitchRollFromRotation(n.T_odom_b.linear()).yaw;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = rotationZ(wrapAngle(n.yaw_w_b - yaw_odom));
+  T.translation() = n.p_w_b - T.linear() * n.T_odom_b.translation();
+  return T;
+}
+
+Eigen::Isometry3d PoseGraph4Dof::T_map_odom() const {
+  if (nodes_.empty()) return Eigen::Isometry3d::Identity();
+  return T_map_odom(static_cast<PoseGraphNodeId>(nodes_.size() - 1));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Optimisation
+// ---------------------------------------------------------------------------------------------
+
+PoseGraphSnapshot PoseGraph4Dof::snapshot() const {
+  PoseGraphSnapshot s;
+  s.options = options_;
+  s.north_enu = north_enu_;
+  s.nodes = nodes_;
+  s.sequential_edges = sequential_edges_;
+  for (const LoopEdge& e : loop_edges_) {
+    if (e.enabled) s.loop_edges.push_back(e);
+  }
+  s.yaw_measurements = yaw_measurements_;
+  return s;
+}
+
+PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
+  PoseGraphSolution sol;
+  const size_t n = s.nodes.size();
+  sol.p_w_b.resize(n);
+  sol.yaw_w_b.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    sol.p_w_b[i] = s.nodes[i].p_w_b;
+    sol.yaw_w_b[i] = s.nodes[i].yaw_w_b;
+  }
+  PoseGraphReport& report = sol.report;
+  report.num_nodes = n;
+  report.num_sequential_edges = s.sequential_edges.size();
+  report.num_loop_edges = s.loop_edges.size();
+  report.num_yaw_factors = s.yaw_measurements.size();
+  if (n == 0 || (s.sequential_edges.empty() && s.loop_edges.empty() && s.yaw_measurements.empty())) {
+    report.message = "nothing to optimise";
+    return sol;
+  }
+
+  // One Ceres solve over the solution arrays (warm-started from their current values) with the
+  // given loop loss. The problem borrows the manifold and the losses (shared by many residual
+  // blocks) and owns the cost functions.
+  AngleManifold angle_manifold;
+  const std::unique_ptr<ceres::LossFunction> mag_loss = makeLoss(s.options.mag_loss, s.options.mag_loss_scale);
+  auto runSolver = [&](ceres::LossFunction* loop_loss, ceres::Solver::Summary* summary) {
+    ceres::Problem::Options problem_options;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    auto addNodeBlocks = [&](PoseGraphNodeId i) {
+      if (!problem.HasParameterBlock(sol.p_w_b[i].data())) problem.AddParameterBlock(sol.p_w_b[i].data(), 3);
+      if (!problem.HasParameterBlock(&sol.yaw_w_b[i])) problem.AddParameterBlock(&sol.yaw_w_b[i], 1, &angle_manifold);
+    };
+    auto addRelative = [&](PoseGraphNodeId i, PoseGraphNodeId j, const RelativePose4Dof& z,
+                           const Eigen::Vector4d& sqrt_info, ceres::LossFunction* loss) {
+      if (i >= n || j >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+      addNodeBlocks(i);
+      addNodeBlocks(j);
+      problem.AddResidualBlock(new RelativePose4DofFactor(z, sqrt_info), loss, sol.p_w_b[i].data(), &sol.yaw_w_b[i],
+                               sol.p_w_b[j].data(), &sol.yaw_w_b[j]);
+    };
+    for (const SequentialEdge& e : s.sequential_edges) addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
+    for (const LoopEdge& e : s.loop_edges) addRelative(e.match, e.query, e.measurement, e.sqrt_information, loop_loss);
+    for (const YawMeasurement& m : s.yaw_measurements) {
+      if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+      addNodeBlocks(m.node);
+      problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad), mag_loss.get(),
+                               &sol.yaw_w_b[m.node]);
+    }
+    // Gauge: relative edges fix nothing absolute. Node 0's position is held; its yaw too unless
+    // geomagnetic factors make yaw observable (then holding it would fight the magnetometer).
+    if (problem.HasParameterBlock(sol.p_w_b[0].data())) problem.SetParameterBlockConstant(sol.p_w_b[0].data());
+    if (s.yaw_measurements.empty() && problem.HasParameterBlock(&sol.yaw_w_b[0]))
+      problem.SetParameterBlockConstant(&sol.yaw_w_b[0]);
+
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    options.max_num_iterations = s.options.max_iterations;
+    if (s.options.max_solver_time_s > 0.0) options.max_solver_time_in_seconds = s.options.max_solver_time_s;
+    options.num_threads = s.options.num_threads;
+    options.logging_type = ceres::SILENT;
+    options.minimizer_progress_to_stdout = false;
+    ceres::Solve(options, &problem, summary);
+  };
+
+  report.yaw_gauge_fixed = s.yaw_measurements.empty();
+  const auto start = std::chrono::steady_clock::now();
+  ceres::Solver::Summary summary;
+  bool warm_started = false;
+  if (s.options.loop_loss == RobustLoss::kCauchy && !s.loop_edges.empty()) {
+    // Cauchy is not convex: started from the VIO poses, a correct loop whose residual is still
+    // many sigmas (accumulated drift) gets almost no weight and the solver can stop short of
+    // closing it. So first converge with Huber of the same scale (convex: a unique optimum,
+    // bounded pull of wrong loops), then refine with Cauchy, which from there discounts the
+    // loops that remain inconsistent.
+    const std::unique_ptr<ceres::LossFunction> huber = makeLoss(RobustLoss::kHuber, s.options.loop_loss_scale);
+    ceres::Solver::Summary warm;
+    runSolver(huber.get(), &warm);
+    if (warm.IsSolutionUsable()) {
+      const std::unique_ptr<ceres::LossFunction> cauchy = makeLoss(RobustLoss::kCauchy, s.options.loop_loss_scale);
+      runSolver(cauchy.get(), &summary);
+      warm_started = true;
+      report.iterations = static_cast<int>(warm.iterations.size()) - 1;
+      report.initial_cost = warm.initial_cost;
+    } else {
+      summary = warm;
+    }
+  } else {
+    const std::unique_ptr<ceres::LossFunction> loop_loss = makeLoss(s.options.loop_loss, s.options.loop_loss_scale);
+    runSolver(loop_loss.get(), &summary);
+  }
+  report.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.solved = summary.IsSolutionUsable();
+  // Iterations of all stages (entry 0 of each summary is the initial state); the initial cost is
+  // that of the first stage, the final cost that of the last (with its own loss).
+  if (!warm_started) report.initial_cost = summary.initial_cost;
+  report.iterations += static_cast<int>(summary.iterations.size()) - 1;
+  report.final_cost = summary.final_cost;
+  report.message = summary.message;
+  if (!report.solved) {
+    // Keep the input poses: a failed solve must not write garbage into the map.
+    for (size_t i = 0; i < n; ++i) {
+      sol.p_w_b[i] = s.nodes[i].p_w_b;
+      sol.yaw_w_b[i] = s.nodes[i].yaw_w_b;
+    }
+    return sol;
+  }
+  for (const LoopEdge& e : s.loop_edges) {
+    const Eigen::Vector4d r = relativePose4DofResidual(sol.p_w_b[e.match], sol.yaw_w_b[e.match], sol.p_w_b[e.query],
+                                                       sol.yaw_w_b[e.query], e.measurement);
+    report.loop_residuals.push_back(LoopEdgeResidual{e.id, e.sqrt_information.cwiseProduct(r).norm()});
+  }
+  return sol;
+}
+
+void PoseGraph4Dof::applySolution(const PoseGraphSolution& solution) {
+  const size_t m = solution.p_w_b.size();
+  if (m > nodes_.size() || solution.yaw_w_b.size() != m)
+    throw std::invalid_argument("PoseGraph4Dof::applySolution: solution does not match the graph");
+  if (!solution.report.solved || m == 0) return;
+  // Drift correction of the snapshot's last node, carried over to the nodes added since.
+  const PoseGraphNode& last = nodes_[m - 1];
+  const double d_yaw = wrapAngle(solution.yaw_w_b[m - 1] - last.yaw_w_b);
+  const Eigen::Vector3d t_corr = solution.p_w_b[m - 1] - rotationZ(d_yaw) * last.p_w_b;
+  for (size_t i = 0; i < m; ++i) {
+    nodes_[i].p_w_b = solution.p_w_b[i];
+    nodes_[i].yaw_w_b = wrapAngle(solution.yaw_w_b[i]);
+  }
+  correctNodes(m, d_yaw, t_corr);
+}
+
+PoseGraphReport PoseGraph4Dof::optimise() {
+  PoseGraphSolution solution = solve(snapshot());
+  applySolution(solution);
+  const PoseGraphReport& r = solution.report;
+  logger_->debug(kComponent, VIMS_STR("optimised " << r.num_nodes << " nodes, " << r.num_loop_edges << " loops, "
+                                      << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost << " -> "
+                                      << r.final_cost << " in " << r.iterations << " iterations, "
+                                      << r.solve_time_s * 1e3 << " ms"));
+  return r;
+}
+
+}  // namespace vims

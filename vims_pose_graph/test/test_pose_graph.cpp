@@ -1,0 +1,366 @@
+// End-to-end behaviour of PoseGraph4Dof on synthetic graphs: loop closing a drifting square,
+// robustness to a wrong loop, geomagnetic yaw factors removing yaw drift, angle wrap at +-pi,
+// the snapshot/apply split, loop edge management and the options.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "vims_pose_graph/angles.h"
+#include "vims_pose_graph/pose_graph.h"
+
+namespace vims {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+/// A keyframe trajectory: ground truth and the drifting VIO estimate of it.
+struct Scenario {
+  std::vector<Eigen::Isometry3d> T_w_b_true;
+  std::vector<Eigen::Isometry3d> T_odom_b;
+};
+
+Eigen::Isometry3d makePose(double yaw, double pitch, double roll, const Eigen::Vector3d& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = rotationFromYawPitchRoll(yaw, pitch, roll);
+  T.translation() = p;
+  return T;
+}
+
+/// Truth from per-node headings (the direction of the step to the next node), 0.5 m steps, with
+/// gentle roll/pitch/depth oscillations. The VIO integrates the true 4-DoF increments with a
+/// constant yaw bias per step and a scale error, starting from the true position and the true
+/// yaw plus `odom_yaw_offset` (the VIO's yaw reference is arbitrary).
+Scenario makeScenario(const std::vector<double>& headings, double yaw_drift_per_step, double scale,
+                      double odom_yaw_offset = 0.0) {
+  Scenario s;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < headings.size(); ++k) {
+    const double pitch = 3 * kDeg * std::sin(0.2 * k), roll = 2 * kDeg * std::cos(0.15 * k);
+    p.z() = 0.3 * std::sin(0.1 * k);
+    s.T_w_b_true.push_back(makePose(wrapAngle(headings[k]), pitch, roll, p));
+    p += 0.5 * Eigen::Vector3d(std::cos(headings[k]), std::sin(headings[k]), 0.0);
+  }
+  double yaw_odom = wrapAngle(yawPitchRollFromRotation(s.T_w_b_true[0].linear()).yaw + odom_yaw_offset);
+  Eigen::Vector3d p_odom = s.T_w_b_true[0].translation();
+  for (size_t k = 0; k < headings.size(); ++k) {
+    const YawPitchRoll ypr = yawPitchRollFromRotation(s.T_w_b_true[k].linear());
+    s.T_odom_b.push_back(makePose(yaw_odom, ypr.pitch, ypr.roll, p_odom));
+    if (k + 1 == headings.size()) break;
+    const RelativePose4Dof z = relativePose4DofFromPoses(s.T_w_b_true[k], s.T_w_b_true[k + 1]);
+    p_odom += rotationZ(yaw_odom) * (scale * z.p_li_j);
+    yaw_odom = wrapAngle(yaw_odom + z.yaw_i_j + yaw_drift_per_step);
+  }
+  return s;
+}
+
+/// A closed square of side 10 m (20 steps a side), `laps` times, starting with `heading0`.
+std::vector<double> squareHeadings(double heading0, int laps = 1) {
+  std::vector<double> h;
+  for (int lap = 0; lap < laps; ++lap)
+    for (int side = 0; side < 4; ++side)
+      for (int i = 0; i < 20; ++i) h.push_back(heading0 + side * M_PI / 2);
+  h.push_back(heading0 + 3 * M_PI / 2);  // the last node is back at the start
+  return h;
+}
+
+PoseGraph4Dof buildGraph(const Scenario& s, const PoseGraphOptions& options = PoseGraphOptions(),
+                         const MagnetometerCalibration& mag = MagnetometerCalibration()) {
+  PoseGraph4Dof graph(options, mag);
+  for (size_t k = 0; k < s.T_odom_b.size(); ++k) {
+    graph.addNode(0.1 * k, s.T_odom_b[k]);
+    if (k > 0) graph.addSequentialEdge(static_cast<PoseGraphNodeId>(k - 1), static_cast<PoseGraphNodeId>(k));
+  }
+  return graph;
+}
+
+Eigen::Isometry3d trueRelative(const Scenario& s, size_t i, size_t j) {
+  return s.T_w_b_true[i].inverse() * s.T_w_b_true[j];
+}
+
+double positionError(const PoseGraph4Dof& g, const Scenario& s, size_t k) {
+  return (g.node(static_cast<PoseGraphNodeId>(k)).p_w_b - s.T_w_b_true[k].translation()).norm();
+}
+
+double meanPositionError(const PoseGraph4Dof& g, const Scenario& s) {
+  double sum = 0.0;
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) sum += positionError(g, s, k);
+  return sum / s.T_w_b_true.size();
+}
+
+double headingError(const PoseGraph4Dof& g, const Scenario& s, size_t k) {
+  return std::abs(wrapAngle(g.node(static_cast<PoseGraphNodeId>(k)).yaw_w_b -
+                            yawPitchRollFromRotation(s.T_w_b_true[k].linear()).yaw));
+}
+
+double maxHeadingError(const PoseGraph4Dof& g, const Scenario& s) {
+  double m = 0.0;
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) m = std::max(m, headingError(g, s, k));
+  return m;
+}
+
+/// Earth's field (50 uT, inclination 60 deg down) in ENU for a declination.
+Eigen::Vector3d earthFieldEnu(double declination) {
+  const double F = 50e-6, I = 60 * kDeg;
+  return F * Eigen::Vector3d(std::cos(I) * std::sin(declination), std::cos(I) * std::cos(declination), -std::sin(I));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(PoseGraph4Dof, ClosesADriftingSquareWithOneLoop) {
+  const Scenario s = makeScenario(squareHeadings(0.0), 0.1 * kDeg, 1.03);
+  PoseGraph4Dof graph = buildGraph(s);
+  const size_t last = s.T_odom_b.size() - 1;
+  const double before = positionError(graph, s, last);
+  const double heading_before = headingError(graph, s, last);
+  graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
+  const PoseGraphReport report = graph.optimise();
+  const double after = positionError(graph, s, last);
+  std::cout << "[ INFO     ] end-point error " << before << " m -> " << after << " m, heading "
+            << heading_before / kDeg << " -> " << headingError(graph, s, last) / kDeg << " deg, "
+            << report.iterations << " iterations, " << report.solve_time_s * 1e3 << " ms" << std::endl;
+  EXPECT_TRUE(report.solved);
+  EXPECT_TRUE(report.yaw_gauge_fixed);
+  EXPECT_EQ(report.num_nodes, last + 1);
+  EXPECT_EQ(report.num_loop_edges, 1u);
+  EXPECT_LT(report.final_cost, report.initial_cost);
+  EXPECT_GT(before, 0.9);
+  EXPECT_LT(after, before / 20.0);
+  EXPECT_LT(headingError(graph, s, last), heading_before / 5.0);
+  // Gauge: node 0 did not move.
+  EXPECT_LT(positionError(graph, s, 0), 1e-9);
+  EXPECT_LT(headingError(graph, s, 0), 1e-9);
+  // The whole trajectory improves, not just the end (the mid-path error left is the VIO's 3 %
+  // scale error, which one loop cannot remove).
+  PoseGraph4Dof odometry_only = buildGraph(s);
+  EXPECT_LT(meanPositionError(graph, s), 0.7 * meanPositionError(odometry_only, s));
+  ASSERT_EQ(report.loop_residuals.size(), 1u);
+  EXPECT_LT(report.loop_residuals[0].whitened_norm, 3.0);
+}
+
+TEST(PoseGraph4Dof, RobustLossLimitsTheDamageOfAWrongLoop) {
+  const Scenario s = makeScenario(squareHeadings(0.0), 0.1 * kDeg, 1.03);
+  const size_t last = s.T_odom_b.size() - 1;
+  auto run = [&](RobustLoss loss, PoseGraphReport* report) {
+    PoseGraphOptions o;
+    o.loop_loss = loss;
+    PoseGraph4Dof graph = buildGraph(s, o);
+    graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
+    // Perceptual aliasing: opposite corners of the square (14 m apart) claimed to coincide.
+    graph.addLoopEdge(20, 60, Eigen::Isometry3d::Identity());
+    *report = graph.optimise();
+    return meanPositionError(graph, s);
+  };
+  PoseGraphReport squared_report, cauchy_report, huber_report;
+  const double squared = run(RobustLoss::kNone, &squared_report);
+  const double cauchy = run(RobustLoss::kCauchy, &cauchy_report);
+  const double huber = run(RobustLoss::kHuber, &huber_report);
+  std::cout << "[ INFO     ] mean position error with a wrong loop: squared " << squared << " m, Huber " << huber
+            << " m, Cauchy " << cauchy << " m" << std::endl;
+  EXPECT_GT(squared, 2.0);
+  EXPECT_LT(cauchy, 0.2 * squared);
+  EXPECT_LT(huber, squared);
+  // The report exposes the outlier: the wrong loop keeps a large residual, the right one not.
+  ASSERT_EQ(cauchy_report.loop_residuals.size(), 2u);
+  EXPECT_LT(cauchy_report.loop_residuals[0].whitened_norm, 5.0);
+  EXPECT_GT(cauchy_report.loop_residuals[1].whitened_norm, 50.0);
+}
+
+TEST(PoseGraph4Dof, DisabledAndRemovedLoopEdgesAreIgnored) {
+  const Scenario s = makeScenario(squareHeadings(0.0), 0.1 * kDeg, 1.03);
+  const size_t last = s.T_odom_b.size() - 1;
+  PoseGraph4Dof graph = buildGraph(s);
+  const double before = positionError(graph, s, last);
+  const LoopEdgeId id = graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
+  ASSERT_TRUE(graph.setLoopEdgeEnabled(id, false));
+  PoseGraphReport report = graph.optimise();
+  EXPECT_EQ(report.num_loop_edges, 0u);
+  EXPECT_NEAR(positionError(graph, s, last), before, 1e-6);  // odometry alone is already optimal
+  ASSERT_TRUE(graph.setLoopEdgeEnabled(id, true));
+  report = graph.optimise();
+  EXPECT_EQ(report.num_loop_edges, 1u);
+  EXPECT_LT(positionError(graph, s, last), before / 20.0);
+  EXPECT_TRUE(graph.removeLoopEdge(id));
+  EXPECT_FALSE(graph.removeLoopEdge(id));
+  EXPECT_FALSE(graph.setLoopEdgeEnabled(id, true));
+  EXPECT_TRUE(graph.loopEdges().empty());
+  // Ids are never reused.
+  EXPECT_NE(graph.addLoopEdge(0, 5, trueRelative(s, 0, 5)), id);
+}
+
+TEST(PoseGraph4Dof, GeomagneticYawRemovesYawDrift) {
+  // Two laps of the square with 0.05 deg/step (0.1 deg/m) of yaw drift, a VIO whose yaw
+  // reference is 120 deg off, a tilted body, a rotated magnetometer and a 12 deg declination.
+  const Scenario s = makeScenario(squareHeadings(30 * kDeg, 2), 0.05 * kDeg, 1.0, 120 * kDeg);
+  MagnetometerCalibration mag;
+  mag.declination_deg = 12.0;
+  mag.T_b_m.linear() = (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()) *
+                        Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  PoseGraph4Dof graph = buildGraph(s, PoseGraphOptions(), mag);
+  const double before = maxHeadingError(graph, s);
+  const size_t last = s.T_odom_b.size() - 1;
+  const double end_before = positionError(graph, s, last);
+  const Eigen::Vector3d B_w = earthFieldEnu(12 * kDeg);
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) {
+    const Eigen::Vector3d B_b = s.T_w_b_true[k].linear().transpose() * B_w;
+    ASSERT_TRUE(graph.addYawMeasurement(static_cast<PoseGraphNodeId>(k), mag.T_b_m.linear().transpose() * B_b));
+  }
+  const PoseGraphReport report = graph.optimise();
+  const double after = maxHeadingError(graph, s);
+  double rms = 0.0;
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) rms += std::pow(headingError(graph, s, k), 2);
+  rms = std::sqrt(rms / s.T_w_b_true.size());
+  std::cout << "[ INFO     ] max heading error " << before / kDeg << " deg -> " << after / kDeg << " deg (rms "
+            << rms / kDeg << " deg), " << report.iterations << " iterations" << std::endl;
+  EXPECT_TRUE(report.solved);
+  EXPECT_FALSE(report.yaw_gauge_fixed);
+  EXPECT_EQ(report.num_yaw_factors, s.T_w_b_true.size());
+  EXPECT_GT(before, 100 * kDeg);
+  EXPECT_LT(after, 2.0 * kDeg);
+  EXPECT_LT(rms, 1.0 * kDeg);
+  EXPECT_LT(positionError(graph, s, last), end_before / 3.0);
+}
+
+TEST(PoseGraph4Dof, YawFactorAloneFixesConstantYawDrift) {
+  // No loops, level flight, no declination: the VIO heading drifts 0.3 deg per keyframe (24 deg
+  // over the square), and the yaw factors alone pull every heading back.
+  // With a constant bias the MAP estimate follows the odometry for about sigma_mag / sigma_odo
+  // keyframes at the ends of the chain, so the residual error there is about drift-per-keyframe
+  // x sigma_mag / sigma_odo; a 1 deg compass keeps that near 1 deg.
+  const Scenario s = makeScenario(squareHeadings(0.0), 0.3 * kDeg, 1.0);
+  PoseGraphOptions o;
+  o.mag_yaw_sigma_rad = 1.0 * kDeg;
+  PoseGraph4Dof graph = buildGraph(s, o);
+  const double before = maxHeadingError(graph, s);
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k)
+    graph.addYawMeasurement(static_cast<PoseGraphNodeId>(k), s.T_w_b_true[k].linear().transpose() * earthFieldEnu(0.0));
+  graph.optimise();
+  double rms = 0.0;
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) rms += std::pow(headingError(graph, s, k), 2);
+  rms = std::sqrt(rms / s.T_w_b_true.size());
+  std::cout << "[ INFO     ] constant yaw drift: max heading error " << before / kDeg << " deg -> "
+            << maxHeadingError(graph, s) / kDeg << " deg (rms " << rms / kDeg << " deg)" << std::endl;
+  EXPECT_GT(before, 20 * kDeg);
+  EXPECT_LT(maxHeadingError(graph, s), 1.5 * kDeg);
+  EXPECT_LT(rms, 0.5 * kDeg);
+}
+
+TEST(PoseGraph4Dof, HandlesHeadingsAcrossPlusMinusPi) {
+  // The square starts heading west (yaw = pi), so yaws cross +-pi while drifting.
+  const Scenario s = makeScenario(squareHeadings(M_PI), 0.1 * kDeg, 1.03);
+  const size_t last = s.T_odom_b.size() - 1;
+  PoseGraph4Dof graph = buildGraph(s);
+  const double before = positionError(graph, s, last);
+  graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
+  graph.optimise();
+  EXPECT_LT(positionError(graph, s, last), before / 20.0);
+  for (size_t k = 0; k <= last; ++k) {
+    EXPECT_LE(std::abs(graph.node(static_cast<PoseGraphNodeId>(k)).yaw_w_b), M_PI + 1e-12);
+    EXPECT_LT(headingError(graph, s, k), 3 * kDeg) << "node " << k;
+  }
+  // Geomagnetic factors on a westward path weaving across +-pi.
+  std::vector<double> weave;
+  for (int k = 0; k < 120; ++k) weave.push_back(M_PI + 20 * kDeg * std::sin(0.1 * k));
+  const Scenario w = makeScenario(weave, 0.2 * kDeg, 1.0, 90 * kDeg);
+  PoseGraph4Dof g2 = buildGraph(w);
+  for (size_t k = 0; k < w.T_w_b_true.size(); ++k)
+    g2.addYawMeasurement(static_cast<PoseGraphNodeId>(k), w.T_w_b_true[k].linear().transpose() * earthFieldEnu(0.0));
+  g2.optimise();
+  EXPECT_LT(maxHeadingError(g2, w), 3 * kDeg);
+}
+
+TEST(PoseGraph4Dof, SnapshotSolveApplyCarriesTheCorrectionToNewNodes) {
+  const Scenario s = makeScenario(squareHeadings(0.0), 0.1 * kDeg, 1.03);
+  const size_t last = s.T_odom_b.size() - 1;
+  PoseGraph4Dof graph = buildGraph(s);
+  graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
+  const PoseGraphSnapshot snap = graph.snapshot();
+  // New keyframes arrive while the worker solves: the VIO continues straight on.
+  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+  step.translation() = Eigen::Vector3d(0.5, 0, 0);
+  for (int i = 0; i < 5; ++i) {
+    const PoseGraphNodeId id = graph.addNode(100.0 + i, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
+    graph.addSequentialEdge(id - 1, id);
+  }
+  const PoseGraphSolution solution = PoseGraph4Dof::solve(snap);
+  ASSERT_TRUE(solution.report.solved);
+  ASSERT_EQ(solution.p_w_b.size(), last + 1);
+  graph.applySolution(solution);
+  for (size_t k = 0; k <= last; ++k)
+    EXPECT_LT((graph.node(static_cast<PoseGraphNodeId>(k)).p_w_b - solution.p_w_b[k]).norm(), 1e-12);
+  EXPECT_LT(positionError(graph, s, last), 0.2);
+  // The nodes added during the solve share the snapshot's last drift correction.
+  const Eigen::Isometry3d T_last = graph.T_map_odom(static_cast<PoseGraphNodeId>(last));
+  const Eigen::Isometry3d T_new = graph.T_map_odom();
+  EXPECT_LT((T_last.matrix() - T_new.matrix()).norm(), 1e-9);
+  // T_map_odom is 4-DoF: a rotation about z plus a translation.
+  EXPECT_NEAR(T_new.linear()(2, 2), 1.0, 1e-12);
+  EXPECT_LT((graph.worldPose(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).matrix() -
+             (T_new * graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b).matrix())
+                .norm(),
+            1e-9);
+  // A node added now starts from the corrected frame.
+  const PoseGraphNodeId n = graph.addNode(200.0, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
+  EXPECT_LT((graph.T_map_odom(n).matrix() - T_new.matrix()).norm(), 1e-9);
+  // A solution larger than the graph is refused.
+  PoseGraphSolution too_big = solution;
+  too_big.p_w_b.resize(1000);
+  too_big.yaw_w_b.resize(1000);
+  EXPECT_THROW(graph.applySolution(too_big), std::invalid_argument);
+}
+
+TEST(PoseGraph4Dof, RejectsBadInput) {
+  std::vector<std::string> warnings;
+  auto logger = std::make_shared<Logger>(
+      [&](LogLevel level, const std::string&, const std::string& msg) {
+        if (level == LogLevel::kWarn) warnings.push_back(msg);
+      },
+      LogLevel::kDebug);
+  PoseGraph4Dof graph(PoseGraphOptions(), MagnetometerCalibration(), logger);
+  EXPECT_EQ(graph.optimise().solved, false);  // empty graph: nothing to optimise
+  EXPECT_TRUE(graph.T_map_odom().isApprox(Eigen::Isometry3d::Identity()));
+  graph.addNode(1.0, Eigen::Isometry3d::Identity());
+  EXPECT_THROW(graph.addNode(0.5, Eigen::Isometry3d::Identity()), std::invalid_argument);
+  Eigen::Isometry3d bad = Eigen::Isometry3d::Identity();
+  bad.translation().x() = NAN;
+  EXPECT_THROW(graph.addNode(2.0, bad), std::invalid_argument);
+  EXPECT_THROW(graph.addSequentialEdge(0, 3), std::invalid_argument);
+  EXPECT_THROW(graph.addSequentialEdge(0, 0), std::invalid_argument);
+  EXPECT_THROW(graph.addLoopEdge(0, 7, Eigen::Isometry3d::Identity()), std::invalid_argument);
+  // A field with almost no horizontal part gives no heading.
+  EXPECT_FALSE(graph.addYawMeasurement(0, Eigen::Vector3d(1e-7, 0, -5e-5)));
+  EXPECT_FALSE(graph.addYawMeasurement(0, Eigen::Vector3d(NAN, 0, 0)));
+  EXPECT_EQ(graph.numYawMeasurements(), 0u);
+  EXPECT_EQ(warnings.size(), 1u);  // throttled per 10 s of sensor time
+  PoseGraphOptions o;
+  o.loop_position_sigma_m = 0.0;
+  EXPECT_THROW(PoseGraph4Dof(o, MagnetometerCalibration()), std::invalid_argument);
+}
+
+TEST(PoseGraphOptions, FromReaderValidatesAndRoundTrips) {
+  const PoseGraphOptions d = PoseGraphOptions::fromReader(ConfigReader::fromString("{}"));
+  EXPECT_EQ(d.toYaml(), PoseGraphOptions().toYaml());
+  const PoseGraphOptions o = PoseGraphOptions::fromReader(ConfigReader::fromString(
+      "loop_loss: huber\nloop_loss_scale: 2.5\nmag_yaw_sigma_deg: 10\nodometry_position_sigma_per_m: 0.05\n"));
+  EXPECT_EQ(o.loop_loss, RobustLoss::kHuber);
+  EXPECT_DOUBLE_EQ(o.loop_loss_scale, 2.5);
+  EXPECT_NEAR(o.mag_yaw_sigma_rad, 10 * kDeg, 1e-15);
+  EXPECT_EQ(PoseGraphOptions::fromReader(ConfigReader::fromString(o.toYaml())).toYaml(), o.toYaml());
+  auto expectKeyInError = [](const std::string& yaml, const std::string& key) {
+    try {
+      PoseGraphOptions::fromReader(ConfigReader::fromString(yaml));
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
+  expectKeyInError("loop_los: cauchy\n", "loop_los");
+  expectKeyInError("loop_loss: tukey\n", "loop_loss");
+  expectKeyInError("mag_yaw_sigma_deg: -1\n", "mag_yaw_sigma_deg");
+  expectKeyInError("num_threads: 0\n", "num_threads");
+  expectKeyInError("odometry_position_sigma_m: abc\n", "odometry_position_sigma_m");
+}
+
+}  // namespace
+}  // namespace vims
