@@ -1,0 +1,154 @@
+// vims_magnetometer_node: a thin ROS wrapper around vims::SignatureExtractor.
+//
+// Subscribes  <topics.mag of the sequence YAML> (sensor_msgs/MagneticField, default /mag/raw)
+//             <topics.imu of the sequence YAML> (sensor_msgs/Imu, default /imu0): the extractor's
+//             own AHRS needs gyro and accelerometer to rotate the alternating field into ENU
+// Publishes   mag/signature   (vims/MagneticSignature) one per window (every hop_s), valid or not
+//             mag/geomagnetic (sensor_msgs/MagneticField) the low-passed geomagnetic field in the
+//                             body frame, every geomagnetic_output_period_s, for yaw factors
+// Params      ~sequence_config (string, required): the sequence YAML (T_b_m, rate, coil frequency,
+//                              declination, gravity, topics)
+//             ~options_file    (string, optional): extractor options, e.g. config/magnetometer.yaml;
+//                              empty = the defaults of MagnetometerOptions
+//             ~mag_topic, ~imu_topic (string, optional): input topics instead of topics.mag / topics.imu
+//             ~world_frame_id  (string, default "map"): frame_id of the signatures (true ENU)
+//             ~body_frame_id   (string, default "base_link"): frame_id of the geomagnetic vector
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/MagneticField.h>
+#include <vims/MagneticSignature.h>
+
+#include "vims_common/config_reader.h"
+#include "vims_common/sequence_config.h"
+#include "vims_magnetometer/signature_extractor.h"
+#include "vims_ros/conversions.h"
+
+namespace {
+
+vims::LoggerPtr rosLogger() {
+  return std::make_shared<vims::Logger>(
+      [](vims::LogLevel level, const std::string& component, const std::string& message) {
+        switch (level) {
+          case vims::LogLevel::kDebug: ROS_DEBUG_STREAM_NAMED(component, message); break;
+          case vims::LogLevel::kInfo: ROS_INFO_STREAM_NAMED(component, message); break;
+          case vims::LogLevel::kWarn: ROS_WARN_STREAM_NAMED(component, message); break;
+          case vims::LogLevel::kError: ROS_ERROR_STREAM_NAMED(component, message); break;
+        }
+      },
+      vims::LogLevel::kDebug);
+}
+
+geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
+  geometry_msgs::Vector3 out;
+  out.x = v.x();
+  out.y = v.y();
+  out.z = v.z();
+  return out;
+}
+
+class MagnetometerNode {
+ public:
+  MagnetometerNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::MagnetometerOptions& options,
+                   const std::string& mag_topic, const std::string& imu_topic, std::string world_frame,
+                   std::string body_frame)
+      : extractor_(options, sequence.magnetometer, sequence.imu.gravity, rosLogger()),
+        world_frame_(std::move(world_frame)),
+        body_frame_(std::move(body_frame)) {
+    signature_pub_ = nh.advertise<vims::MagneticSignature>("mag/signature", 20);
+    geomagnetic_pub_ = nh.advertise<sensor_msgs::MagneticField>("mag/geomagnetic", 50);
+    // Queues hold ~2 s of data: the magnetometer runs at 1000 Hz and must not lose samples
+    // (a lost sample invalidates the windows around it).
+    mag_sub_ = nh.subscribe(mag_topic, 2000, &MagnetometerNode::onMag, this, ros::TransportHints().tcpNoDelay());
+    imu_sub_ = nh.subscribe(imu_topic, 400, &MagnetometerNode::onImu, this, ros::TransportHints().tcpNoDelay());
+    ROS_INFO_STREAM("magnetometer: " << mag_sub_.getTopic() << " + " << imu_sub_.getTopic() << " -> "
+                                     << signature_pub_.getTopic() << ", " << geomagnetic_pub_.getTopic()
+                                     << "; options:\n" << options.toYaml());
+  }
+
+ private:
+  void onImu(const sensor_msgs::Imu::ConstPtr& msg) {
+    vims::ImuSample sample;
+    std::string why;
+    if (!vims::toImuSample(*msg, &sample, &why)) {
+      ROS_WARN_STREAM_THROTTLE(5.0, "IMU message rejected: " << why);
+      return;
+    }
+    extractor_.feedImu(sample);
+  }
+
+  void onMag(const sensor_msgs::MagneticField::ConstPtr& msg) {
+    vims::MagSample sample;
+    std::string why;
+    if (!vims::toMagSample(*msg, &sample, &why)) {
+      // The extractor sees the hole as a gap and invalidates the windows around it.
+      ROS_WARN_STREAM_THROTTLE(5.0, "magnetometer message rejected: " << why);
+      return;
+    }
+    signatures_.clear();
+    geomagnetic_.clear();
+    extractor_.feedMag(sample, &signatures_, &geomagnetic_);
+    for (const vims::GeomagneticSample& g : geomagnetic_) {
+      sensor_msgs::MagneticField out;
+      out.header.stamp = ros::Time(g.t);
+      out.header.frame_id = body_frame_;
+      out.magnetic_field = toVector3(g.field_b);
+      const double var = g.std_per_axis * g.std_per_axis;
+      out.magnetic_field_covariance = {var, 0, 0, 0, var, 0, 0, 0, var};
+      geomagnetic_pub_.publish(out);
+    }
+    for (const vims::SignatureWindow& s : signatures_) {
+      vims::MagneticSignature out;
+      out.header.stamp = ros::Time(s.t);
+      out.header.frame_id = world_frame_;
+      out.window_start = ros::Time(s.t_start);
+      out.window_end = ros::Time(s.t_end);
+      out.frequency_hz = s.frequency_hz;
+      out.amplitude_enu = toVector3(s.amplitude_enu);
+      out.geomagnetic_body = toVector3(s.geomagnetic_body);
+      out.snr = s.snr;
+      out.valid = s.valid;
+      signature_pub_.publish(out);
+    }
+  }
+
+  vims::SignatureExtractor extractor_;
+  std::string world_frame_;
+  std::string body_frame_;
+  std::vector<vims::SignatureWindow> signatures_;
+  std::vector<vims::GeomagneticSample> geomagnetic_;
+  ros::Publisher signature_pub_;
+  ros::Publisher geomagnetic_pub_;
+  ros::Subscriber mag_sub_;
+  ros::Subscriber imu_sub_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "vims_magnetometer");
+  ros::NodeHandle nh;
+  ros::NodeHandle pnh("~");
+  std::string sequence_path, options_path, world_frame, body_frame;
+  if (!pnh.getParam("sequence_config", sequence_path)) {
+    ROS_FATAL("parameter ~sequence_config (path of the sequence YAML) is required");
+    return 1;
+  }
+  pnh.param<std::string>("options_file", options_path, "");
+  pnh.param<std::string>("world_frame_id", world_frame, "map");
+  pnh.param<std::string>("body_frame_id", body_frame, "base_link");
+  try {
+    std::vector<std::string> unknown;
+    const vims::SequenceConfig sequence = vims::SequenceConfig::load(sequence_path, &unknown);
+    for (const auto& key : unknown) ROS_WARN_STREAM(sequence_path << ": key '" << key << "' is not in the contract");
+    const vims::MagnetometerOptions options =
+        options_path.empty() ? vims::MagnetometerOptions{}
+                             : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path));
+    MagnetometerNode node(nh, sequence, options, pnh.param<std::string>("mag_topic", sequence.topics.mag),
+                          pnh.param<std::string>("imu_topic", sequence.topics.imu), world_frame, body_frame);
+    ros::spin();
+  } catch (const vims::ConfigError& e) {
+    ROS_FATAL_STREAM("configuration error: " << e.what());
+    return 1;
+  }
+  return 0;
+}

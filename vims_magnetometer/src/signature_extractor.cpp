@@ -1,0 +1,271 @@
+#include "vims_magnetometer/signature_extractor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+namespace vims {
+namespace {
+constexpr const char* kComponent = "mag_signature";
+/// An SNR with (numerically) no noise at all is reported as this instead of infinity.
+constexpr double kMaxSnr = 1e12;
+}  // namespace
+
+std::string signatureFlagsToString(unsigned flags) {
+  std::string out;
+  auto add = [&](unsigned bit, const char* name) {
+    if (flags & bit) out += (out.empty() ? "" : "|") + std::string(name);
+  };
+  add(kSignatureGap, "gap");
+  add(kSignatureNonFinite, "non_finite");
+  add(kSignatureNoAttitude, "no_attitude");
+  add(kSignatureLowSnr, "low_snr");
+  return out;
+}
+
+Eigen::Vector3d canonicalSignature(const Eigen::Vector3d& amplitude) {
+  Eigen::Index dominant = 0;
+  amplitude.cwiseAbs().maxCoeff(&dominant);
+  return amplitude[dominant] < 0.0 ? Eigen::Vector3d(-amplitude) : amplitude;
+}
+
+MovingAverageLength chooseMovingAverage(double rate_hz, double coil_frequency_hz, int min_periods) {
+  MovingAverageLength best;
+  best.residual = 1e300;
+  for (int m = std::max(1, min_periods); m <= 4 * std::max(1, min_periods); ++m) {
+    const double exact = m * rate_hz / coil_frequency_hz;
+    const int n = static_cast<int>(std::lround(exact));
+    const double residual = std::abs(exact - n);
+    if (n >= 2 && residual < best.residual - 1e-9) {
+      best = {m, n, residual};
+      if (residual < 1e-6) break;
+    }
+  }
+  return best;
+}
+
+SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const MagnetometerCalibration& calibration,
+                                       double gravity, LoggerPtr logger)
+    : options_(options),
+      calibration_(calibration),
+      R_b_m_(calibration.T_b_m.linear()),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()),
+      attitude_(options.attitude, gravity, calibration.declination_deg * M_PI / 180.0,
+                // attitudeAt() must reach back to the centre of the moving average, plus margin.
+                0.5 * options.geomagnetic_min_periods * 4.0 / calibration.coil_frequency_hz + 1.0, logger_) {
+  options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
+  moving_average_ = chooseMovingAverage(calibration_.rate_hz, calibration_.coil_frequency_hz,
+                                        options_.geomagnetic_min_periods);
+  window_samples_ = static_cast<int>(std::lround(options_.window_s * calibration_.rate_hz));
+  hop_samples_ = std::max(1, static_cast<int>(std::lround(options_.hop_s * calibration_.rate_hz)));
+  // Periodic Hann window: its sidelobes fall as 1/f^3, so the slow residual of the geomagnetic
+  // separation (vehicle turning) does not leak into the coil bin.
+  hann_.resize(window_samples_);
+  for (int n = 0; n < window_samples_; ++n) {
+    hann_[n] = 0.5 - 0.5 * std::cos(2.0 * M_PI * n / window_samples_);
+    hann_sum_ += hann_[n];
+  }
+  const double window_s = static_cast<double>(window_samples_) / calibration_.rate_hz;
+  frequencies_.push_back(calibration_.coil_frequency_hz);
+  for (int k = options_.snr_inner_bins; k <= options_.snr_outer_bins; ++k) {
+    frequencies_.push_back(calibration_.coil_frequency_hz - k / window_s);
+    frequencies_.push_back(calibration_.coil_frequency_hz + k / window_s);
+  }
+  raw_.resize(moving_average_.samples);
+  alt_.resize(window_samples_);
+  logger_->info(kComponent,
+                VIMS_STR("geomagnetic moving average: " << moving_average_.samples << " samples = "
+                                                        << moving_average_.periods << " coil periods (residual "
+                                                        << moving_average_.residual << " samples); window "
+                                                        << window_samples_ << " samples, hop " << hop_samples_));
+}
+
+void SignatureExtractor::reset() {
+  raw_count_ = 0;
+  raw_sum_.setZero();
+  raw_gap_count_ = 0;
+  raw_nonfinite_count_ = 0;
+  alt_count_ = 0;
+  have_last_t_ = false;
+  have_geomagnetic_output_ = false;
+}
+
+void SignatureExtractor::feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
+                                 std::vector<GeomagneticSample>* geomagnetic) {
+  ++stats_.mag_samples;
+  const double t = sample.t;
+  if (!std::isfinite(t)) {
+    logger_->warnThrottled(kComponent, "stamp", have_last_t_ ? last_t_ : 0.0, 5.0,
+                           "magnetometer sample with a non-finite stamp ignored");
+    return;
+  }
+  const double dt_nominal = 1.0 / calibration_.rate_hz;
+  if (have_last_t_) {
+    const double dt = t - last_t_;
+    if (dt < -0.5 * dt_nominal) {
+      logger_->warn(kComponent, VIMS_STR("magnetometer clock went backwards by " << -dt
+                                                                                  << " s; restarting the pipeline"));
+      ++stats_.resets;
+      reset();
+    } else {
+      const long steps = std::lround(dt / dt_nominal);
+      if (steps <= 0) {
+        ++stats_.duplicates;
+        logger_->warnThrottled(kComponent, "duplicate", t, 5.0, "repeated magnetometer stamp dropped");
+        return;
+      }
+      const long missing = steps - 1;
+      if (missing > 0 && missing * dt_nominal > options_.max_fill_gap_s) {
+        logger_->warn(kComponent, VIMS_STR("magnetometer gap of " << dt << " s at t=" << std::fixed << t
+                                                                  << "; restarting the pipeline"));
+        ++stats_.resets;
+        reset();
+      } else if (missing > 0) {
+        logger_->warnThrottled(kComponent, "gap", t, 5.0,
+                               VIMS_STR(missing << " magnetometer samples missing before t=" << std::fixed << t));
+        stats_.filled_slots += missing;
+        for (long k = 1; k <= missing; ++k) {
+          pushRaw(last_t_ + dt * k / steps, Eigen::Vector3d::Zero(), kSignatureGap, geomagnetic, signatures);
+        }
+      }
+    }
+  }
+  have_last_t_ = true;
+  last_t_ = t;
+  const bool finite = sample.field.allFinite();
+  if (!finite) {
+    ++stats_.nonfinite;
+    logger_->warnThrottled(kComponent, "nonfinite", t, 5.0, "non-finite magnetometer sample");
+  }
+  pushRaw(t, finite ? sample.field : Eigen::Vector3d::Zero(), finite ? 0u : kSignatureNonFinite, geomagnetic,
+          signatures);
+}
+
+void SignatureExtractor::pushRaw(double t, const Eigen::Vector3d& B_m, unsigned flags,
+                                 std::vector<GeomagneticSample>* geomagnetic,
+                                 std::vector<SignatureWindow>* signatures) {
+  const int n_ma = moving_average_.samples;
+  RawSlot& slot = raw_[raw_count_ % n_ma];
+  if (raw_count_ >= n_ma) {  // the slot leaves the average
+    raw_sum_ -= slot.B_m;
+    if (slot.flags & kSignatureGap) --raw_gap_count_;
+    if (slot.flags & kSignatureNonFinite) --raw_nonfinite_count_;
+  }
+  slot = {t, B_m, flags};
+  raw_sum_ += B_m;
+  if (flags & kSignatureGap) ++raw_gap_count_;
+  if (flags & kSignatureNonFinite) ++raw_nonfinite_count_;
+  ++raw_count_;
+  if (raw_count_ % n_ma == 0) {
+    // Re-sum once per length so rounding in the running sum cannot accumulate.
+    raw_sum_.setZero();
+    for (const RawSlot& s : raw_) raw_sum_ += s.B_m;
+  }
+  if (raw_count_ < n_ma) return;
+
+  const RawSlot& centre = raw_[(raw_count_ - 1 - n_ma / 2) % n_ma];
+  AltSlot alt{centre.t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0u};
+  if (raw_gap_count_ > 0) alt.flags |= kSignatureGap;
+  if (raw_nonfinite_count_ > 0) alt.flags |= kSignatureNonFinite;
+  if (alt.flags == 0) {
+    const Eigen::Vector3d mean_m = raw_sum_ / n_ma;
+    alt.B_geo_b = R_b_m_ * mean_m;
+    attitude_.feedGeomagnetic(centre.t, alt.B_geo_b);
+    const double period = options_.geomagnetic_output_period_s;
+    if (!have_geomagnetic_output_ ||
+        centre.t - last_geomagnetic_output_t_ >= period - 0.5 / calibration_.rate_hz) {
+      have_geomagnetic_output_ = true;
+      last_geomagnetic_output_t_ = centre.t;
+      if (geomagnetic) {
+        geomagnetic->push_back({centre.t, alt.B_geo_b, calibration_.noise_std / std::sqrt(static_cast<double>(n_ma))});
+      }
+    }
+    const auto q_w_b = attitude_.attitudeAt(centre.t);
+    if (q_w_b) {
+      alt.b_w = *q_w_b * (R_b_m_ * (centre.B_m - mean_m));
+    } else {
+      alt.flags |= kSignatureNoAttitude;
+      alt.B_geo_b.setZero();
+    }
+  }
+  pushAlt(alt, signatures);
+}
+
+void SignatureExtractor::pushAlt(const AltSlot& slot, std::vector<SignatureWindow>* signatures) {
+  alt_[alt_count_ % window_samples_] = slot;
+  ++alt_count_;
+  if (alt_count_ < window_samples_ || (alt_count_ - window_samples_) % hop_samples_ != 0) return;
+  const SignatureWindow sig = computeWindow();
+  ++stats_.windows;
+  if (sig.valid) ++stats_.valid_windows;
+  if (signatures) signatures->push_back(sig);
+}
+
+SignatureWindow SignatureExtractor::computeWindow() const {
+  const int W = window_samples_;
+  const long first = alt_count_ - W;  // index of the oldest slot in the window
+  const std::size_t n_freq = frequencies_.size();
+  // Goertzel state per frequency and axis: s1, s2.
+  std::vector<Eigen::Vector3d> s1(n_freq, Eigen::Vector3d::Zero()), s2(n_freq, Eigen::Vector3d::Zero());
+  std::vector<double> coeff(n_freq);
+  for (std::size_t k = 0; k < n_freq; ++k) {
+    coeff[k] = 2.0 * std::cos(2.0 * M_PI * frequencies_[k] / calibration_.rate_hz);
+  }
+  unsigned flags = 0;
+  Eigen::Vector3d geo_sum = Eigen::Vector3d::Zero();
+  int geo_n = 0;
+  for (int n = 0; n < W; ++n) {
+    const AltSlot& slot = alt_[(first + n) % W];
+    flags |= slot.flags;
+    if (slot.flags == 0) {
+      geo_sum += slot.B_geo_b;
+      ++geo_n;
+    }
+    const Eigen::Vector3d x = hann_[n] * slot.b_w;
+    for (std::size_t k = 0; k < n_freq; ++k) {
+      const Eigen::Vector3d s0 = x + coeff[k] * s1[k] - s2[k];
+      s2[k] = s1[k];
+      s1[k] = s0;
+    }
+  }
+  // Goertzel output y = s1 - e^{-jw} s2 equals the DTFT up to a phase common to all axes, which
+  // cancels in the relative phases below.
+  auto dtft = [&](std::size_t k, int axis) {
+    const double w = 2.0 * M_PI * frequencies_[k] / calibration_.rate_hz;
+    return std::complex<double>(s1[k][axis] - std::cos(w) * s2[k][axis], std::sin(w) * s2[k][axis]);
+  };
+  std::complex<double> X[3];
+  double coil_power = 0.0;
+  int dominant = 0;
+  for (int a = 0; a < 3; ++a) {
+    X[a] = dtft(0, a);
+    coil_power += std::norm(X[a]);
+    if (std::abs(X[a]) > std::abs(X[dominant])) dominant = a;
+  }
+  double noise_power = 0.0;
+  for (std::size_t k = 1; k < n_freq; ++k) {
+    for (int a = 0; a < 3; ++a) noise_power += std::norm(dtft(k, a));
+  }
+  noise_power /= static_cast<double>(n_freq - 1);
+
+  SignatureWindow sig;
+  const AltSlot& oldest = alt_[first % W];
+  const AltSlot& newest = alt_[(alt_count_ - 1) % W];
+  sig.t_start = oldest.t;
+  sig.t_end = newest.t;
+  sig.t = 0.5 * (oldest.t + newest.t);
+  sig.frequency_hz = calibration_.coil_frequency_hz;
+  const double dominant_abs = std::abs(X[dominant]);
+  if (dominant_abs > 0.0) {
+    const std::complex<double> reference = std::conj(X[dominant]) / dominant_abs;
+    for (int a = 0; a < 3; ++a) sig.amplitude_enu[a] = 2.0 * (X[a] * reference).real() / hann_sum_;
+  }
+  if (geo_n > 0) sig.geomagnetic_body = geo_sum / geo_n;
+  sig.snr = noise_power > 0.0 ? std::min(kMaxSnr, coil_power / noise_power) : (coil_power > 0.0 ? kMaxSnr : 0.0);
+  if (sig.snr < options_.min_snr) flags |= kSignatureLowSnr;
+  sig.flags = flags;
+  sig.valid = flags == 0;
+  return sig;
+}
+
+}  // namespace vims
