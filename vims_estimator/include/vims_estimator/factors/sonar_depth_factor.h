@@ -1,0 +1,103 @@
+#pragma once
+/// @file sonar_depth_factor.h
+/// @brief The sonar depth factor (the paper's contribution): a feature first seen in keyframe k
+/// lies at the height of the flat seabed point that keyframe k's sonar beam hits.
+///
+/// States: pose_k = T_l_bk (the feature's anchor keyframe), extrinsic T_b_c, the feature's direct
+/// depth lambda, and the time offset td (it moves the anchor bearing, feature_observation.h).
+/// Constants: the sonar extrinsic T_b_s (from the sequence YAML, never estimated), the anchor
+/// observation and the filtered sonar range d[k] interpolated to keyframe k's state time.
+///
+///   seabed point  s_l = T_l_bk T_b_s [0 0 d]^T  = p_k + R_k s_b,  s_b = p_bs + d R_bs e_z
+///   feature       f_l = T_l_bk T_b_c (lambda b) = p_k + R_k f_b,  f_b = p_bc + lambda R_bc b
+///   r = (s_l)_z - (f_l)_z = e_z^T R_k (s_b - f_b)                              (1 residual)
+///
+/// Both points hang off the same body pose, so p_k cancels: the factor constrains lambda through
+/// the attitude (roll, pitch) of keyframe k only; dr/dp_k = 0. The VIO frame l is gravity aligned
+/// (z up), so (.)_z is height and the flat-bottom assumption is "equal heights".
+///
+/// Tangent Jacobians (q' = q Exp(dtheta)):
+///   dr/dp_k = 0                      dr/dth_k  = -e_z^T R_k [s_b - f_b]x
+///   dr/dp_bc = -e_z^T R_k            dr/dth_bc = e_z^T R_k R_bc [lambda b]x
+///   dr/dlambda = -e_z^T R_k R_bc b   dr/dtd    = -lambda e_z^T R_k R_bc db/dtd
+///
+/// Noise: sigma = sqrt(sigma_range^2 + sigma_flatness^2) (range noise of the filtered sonar
+/// depth plus the seabed's deviation from a plane between the beam spot and the feature); the
+/// factor returns r / sigma. It is meant to be used with a robust loss (Huber or Cauchy, chosen
+/// by the caller) and after sonarDepthGate() has removed features off the seabed plane.
+
+#include <ceres/sized_cost_function.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+
+#include "vims_common/config_reader.h"
+#include "vims_estimator/feature_observation.h"
+
+namespace vims {
+
+struct SonarDepthOptions {
+  /// [m] Deviation of the seabed from a plane between the beam spot and a feature a few metres
+  /// away: a tank floor is flat to a few centimetres, sand ripples are 2-5 cm high.
+  double flatness_std = 0.05;
+  /// Gate on the whitened squared residual r^2/sigma^2: the 99 % quantile of chi-square with one
+  /// degree of freedom, so a consistent feature is dropped 1 % of the time.
+  double gate_chi2 = 6.635;
+  /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
+  /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
+  double gate_max_height_difference = 0.5;
+
+  /// sqrt(range_std^2 + flatness_std^2).
+  double sigma(double range_std) const;
+
+  /// Reads {flatness_std, gate_chi2, gate_max_height_difference}; unknown keys, negative
+  /// flatness_std and non-positive gates throw ConfigError naming the key.
+  static SonarDepthOptions fromReader(const ConfigReader& reader);
+  std::string toYaml() const;
+};
+
+/// Tangent-space Jacobians of the unwhitened sonar depth residual.
+struct SonarDepthJacobians {
+  Eigen::Matrix<double, 1, 6> d_pose;  ///< zero in the position columns (p_k cancels)
+  Eigen::Matrix<double, 1, 6> d_extrinsic;
+  double d_lambda = 0.0;
+  double d_td = 0.0;
+};
+
+/// The unwhitened residual r = (s_l)_z - (f_l)_z (file comment); Jacobians if non-null.
+double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                          const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
+                          SonarDepthJacobians* jacobians = nullptr);
+
+/// Result of the flat-bottom consistency gate.
+struct SonarGateResult {
+  double height_difference = 0.0;  ///< r = seabed height - feature height [m]
+  double chi2 = 0.0;               ///< r^2 / sigma^2
+  bool consistent = true;          ///< false: the caller drops the feature's sonar factor
+};
+
+/// Flat-bottom gate: evaluates r at the current estimate and flags the feature inconsistent when
+/// chi2 > options.gate_chi2 or |r| > options.gate_max_height_difference (or r is not finite).
+SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                               const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
+                               double td, double sigma, const SonarDepthOptions& options);
+
+/// Ceres wrapper: parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1)]; returns r / sigma.
+class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
+ public:
+  /// `range` is the filtered sonar range d[k] at keyframe k's state time [m]; `sigma` the total
+  /// standard deviation (SonarDepthOptions::sigma). Throws std::invalid_argument if range is not
+  /// finite and > 0 or sigma is not > 0.
+  SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s, double sigma);
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  FeatureObservation anchor_;
+  double range_;
+  Eigen::Isometry3d T_b_s_;
+  double inv_sigma_;
+};
+
+}  // namespace vims

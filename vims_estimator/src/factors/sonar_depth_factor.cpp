@@ -1,0 +1,98 @@
+#include "vims_estimator/factors/sonar_depth_factor.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "vims_estimator/so3.h"
+#include "vims_estimator/state_blocks.h"
+
+namespace vims {
+
+double SonarDepthOptions::sigma(double range_std) const {
+  return std::sqrt(range_std * range_std + flatness_std * flatness_std);
+}
+
+SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
+  reader.rejectUnknownKeys({"flatness_std", "gate_chi2", "gate_max_height_difference"});
+  SonarDepthOptions o;
+  o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
+  o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
+  o.gate_max_height_difference = reader.get<double>("gate_max_height_difference", o.gate_max_height_difference);
+  requireNonNegative(reader, "flatness_std", o.flatness_std);
+  requirePositive(reader, "gate_chi2", o.gate_chi2);
+  requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
+  return o;
+}
+
+std::string SonarDepthOptions::toYaml() const {
+  std::ostringstream os;
+  os << "flatness_std: " << flatness_std << "\n"
+     << "gate_chi2: " << gate_chi2 << "\n"
+     << "gate_max_height_difference: " << gate_max_height_difference << "\n";
+  return os.str();
+}
+
+double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                          const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
+                          SonarDepthJacobians* J) {
+  const Eigen::Matrix3d R_k = T_l_bk.linear();
+  const Eigen::Matrix3d R_bc = T_b_c.linear();
+  Eigen::Vector3d db_dtd;
+  const Eigen::Vector3d b = unitBearing(anchor, td, J ? &db_dtd : nullptr);
+
+  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
+  const Eigen::Vector3d f_b = T_b_c.translation() + lambda * (R_bc * b);            // feature, body frame
+  const Eigen::Vector3d d_b = s_b - f_b;
+  // e_z^T R_k = third row of R_k: the body-frame direction whose component is height in l.
+  const Eigen::RowVector3d up_in_b = R_k.row(2);
+  const double r = up_in_b.dot(d_b);
+  if (J == nullptr) return r;
+
+  J->d_pose.leftCols<3>().setZero();
+  J->d_pose.rightCols<3>() = -up_in_b * so3::skew(d_b);
+  J->d_extrinsic.leftCols<3>() = -up_in_b;
+  J->d_extrinsic.rightCols<3>() = up_in_b * R_bc * so3::skew(lambda * b);
+  J->d_lambda = -up_in_b * (R_bc * b);
+  J->d_td = -lambda * up_in_b * (R_bc * db_dtd);
+  return r;
+}
+
+SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                               const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
+                               double td, double sigma, const SonarDepthOptions& options) {
+  SonarGateResult g;
+  g.height_difference = sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td);
+  g.chi2 = g.height_difference * g.height_difference / (sigma * sigma);
+  g.consistent = std::isfinite(g.chi2) && g.chi2 <= options.gate_chi2 &&
+                 std::abs(g.height_difference) <= options.gate_max_height_difference;
+  return g;
+}
+
+SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                                   double sigma)
+    : anchor_(anchor), range_(range), T_b_s_(T_b_s), inv_sigma_(1.0 / sigma) {
+  if (!(std::isfinite(range) && range > 0.0)) throw std::invalid_argument("SonarDepthFactor: range must be > 0");
+  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SonarDepthFactor: sigma must be > 0");
+}
+
+bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Isometry3d T_l_bk = poseBlockToIsometry(parameters[0]);
+  const Eigen::Isometry3d T_b_c = poseBlockToIsometry(parameters[1]);
+  const double lambda = parameters[2][0];
+  const double td = parameters[3][0];
+
+  SonarDepthJacobians J;
+  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, T_l_bk, T_b_c, lambda, td, jacobians ? &J : nullptr);
+  if (!std::isfinite(r)) return false;
+  residuals[0] = inv_sigma_ * r;
+  if (!jacobians) return true;
+
+  writePoseJacobian<1>(inv_sigma_ * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
+  writePoseJacobian<1>(inv_sigma_ * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
+  if (jacobians[2]) jacobians[2][0] = inv_sigma_ * J.d_lambda;
+  if (jacobians[3]) jacobians[3][0] = inv_sigma_ * J.d_td;
+  return true;
+}
+
+}  // namespace vims

@@ -1,0 +1,333 @@
+// Every analytic Jacobian (IMU, reprojection with direct depth and td, sonar depth, pose prior,
+// relative pose, marginalisation prior) against central differences in the blocks' tangent
+// spaces (PoseManifold for poses), at random non-trivial states, several seeds each.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "analytic_trajectory.h"
+#include "test_utils.h"
+#include "vims_estimator/factors/imu_factor.h"
+#include "vims_estimator/factors/marginalization_factor.h"
+#include "vims_estimator/factors/pose_prior_factor.h"
+#include "vims_estimator/factors/relative_pose_factor.h"
+#include "vims_estimator/factors/reprojection_factor.h"
+#include "vims_estimator/factors/sonar_depth_factor.h"
+
+namespace vims {
+namespace {
+
+using test::poseBlock;
+using test::randomRotation;
+using test::randomVector;
+constexpr BlockManifold kPose = BlockManifold::kPose;
+constexpr BlockManifold kEuclid = BlockManifold::kEuclidean;
+
+// Central-difference step and tolerance: truncation ~h^2 and rounding ~1e-16/h relative, both far
+// below 1e-6; a wrong sign, frame or missing term gives O(1e-2..1) relative errors.
+constexpr double kStep = 1e-6;
+constexpr double kTol = 1e-6;
+constexpr unsigned kSeeds[] = {1, 2, 3, 4, 5, 6};
+
+std::vector<double> speedBiasBlock(const Eigen::Vector3d& v, const Eigen::Vector3d& ba, const Eigen::Vector3d& bg) {
+  std::vector<double> b(9);
+  Eigen::Map<Eigen::Matrix<double, 9, 1>>(b.data()) << v, ba, bg;
+  return b;
+}
+
+/// A camera looking down from an FLU body (optical z = -body z), slightly rotated and offset.
+Eigen::Isometry3d downLookingCamera(std::mt19937& rng) {
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+  T_b_c.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.2)).toRotationMatrix();
+  T_b_c.translation() = randomVector(rng, 0.2);
+  return T_b_c;
+}
+
+FeatureObservation randomObservation(std::mt19937& rng) {
+  FeatureObservation o;
+  o.uv = randomVector(rng, 0.4).head<2>();
+  o.velocity = randomVector(rng, 0.3).head<2>();
+  o.td_frame = randomVector(rng, 0.01).x();
+  return o;
+}
+
+TEST(FactorJacobians, ImuFactor) {
+  const test::AnalyticTrajectory traj;
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(seed);
+    const double ti = 0.2 + 0.1 * seed, T = seed % 2 ? 0.1 : 0.6;
+    const Eigen::Vector3d ba_true = randomVector(rng, 0.1), bg_true = randomVector(rng, 0.01);
+    std::vector<ImuSample> samples;
+    for (int k = 0; k <= static_cast<int>(std::lround(T * 200)); ++k) {
+      ImuSample s = traj.imu(ti + k / 200.0);
+      s.accel += ba_true;
+      s.gyro += bg_true;
+      samples.push_back(s);
+    }
+    ImuNoiseParams noise;
+    noise.gyro_noise_density = 1.7e-4;
+    noise.accel_noise_density = 2e-3;
+    noise.gyro_random_walk = 2e-5;
+    noise.accel_random_walk = 3e-3;
+    // Linearised away from the state biases so the bias-correction terms (incl. Jr(phi)) matter.
+    const Eigen::Vector3d ba_lin = ba_true + randomVector(rng, 0.05), bg_lin = bg_true + randomVector(rng, 0.02);
+    auto pre = std::make_shared<ImuPreintegration>(ImuPreintegration::fromSamples(samples, ba_lin, bg_lin, noise));
+    const ImuFactor factor(pre, traj.gravityWorld());
+
+    const double tj = samples.back().t;
+    std::vector<std::vector<double>> params = {
+        poseBlock(traj.position(ti) + randomVector(rng, 0.3), traj.rotation(ti) * randomRotation(rng, 0.3)),
+        speedBiasBlock(traj.velocity(ti) + randomVector(rng, 0.2), ba_true + randomVector(rng, 0.05),
+                       bg_true + randomVector(rng, 0.02)),
+        poseBlock(traj.position(tj) + randomVector(rng, 0.3), traj.rotation(tj) * randomRotation(rng, 0.3)),
+        speedBiasBlock(traj.velocity(tj) + randomVector(rng, 0.2), ba_true + randomVector(rng, 0.05),
+                       bg_true + randomVector(rng, 0.02))};
+    // The residual is far from zero: the check runs at a non-trivial point.
+    EXPECT_GT(test::evaluateResidual(factor, params).norm(), 10.0);
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kEuclid, kPose, kEuclid}, kStep, kTol,
+                         "imu seed " + std::to_string(seed)));
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+// The IMU residual is zero at the true states with the true biases (model consistency, not only
+// derivative consistency).
+TEST(FactorJacobians, ImuResidualVanishesAtTruth) {
+  const test::AnalyticTrajectory traj;
+  std::vector<ImuSample> samples;
+  for (int k = 0; k <= 100; ++k) samples.push_back(traj.imu(0.5 + k / 200.0));
+  ImuNoiseParams noise;
+  noise.gyro_noise_density = noise.accel_noise_density = noise.gyro_random_walk = noise.accel_random_walk = 1e-3;
+  const ImuPreintegration pre =
+      ImuPreintegration::fromSamples(samples, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), noise);
+  NavState xi, xj;
+  xi.p_l_b = traj.position(0.5);
+  xi.q_l_b = traj.rotation(0.5);
+  xi.v_l_b = traj.velocity(0.5);
+  xj.p_l_b = traj.position(1.0);
+  xj.q_l_b = traj.rotation(1.0);
+  xj.v_l_b = traj.velocity(1.0);
+  EXPECT_LT(imuResidual(pre, traj.gravityWorld(), xi, xj).norm(), 1e-5);
+}
+
+TEST(FactorJacobians, ReprojectionFactorWithDirectDepthAndTimeOffset) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(100 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_l_bi = Eigen::Isometry3d::Identity();
+    T_l_bi.linear() = randomRotation(rng, 0.3).toRotationMatrix();
+    T_l_bi.translation() = randomVector(rng, 2.0) + Eigen::Vector3d(0, 0, 4.0);
+    Eigen::Isometry3d T_l_bk = T_l_bi;
+    T_l_bk.linear() = T_l_bi.linear() * randomRotation(rng, 0.2).toRotationMatrix();
+    T_l_bk.translation() += randomVector(rng, 0.6);
+
+    const FeatureObservation anchor = randomObservation(rng);
+    FeatureObservation target = randomObservation(rng);
+    const double lambda = 3.0 + randomVector(rng, 1.0).x();
+    const double td = randomVector(rng, 0.02).x();
+    // Target observation near the true projection (non-zero residual).
+    double z = 0.0;
+    const Eigen::Vector2d r0 = reprojectionResidual(anchor, target, T_l_bi, T_l_bk, T_b_c, lambda, td, nullptr, &z);
+    ASSERT_GT(z, 1.0);
+    target.uv -= r0 - randomVector(rng, 0.01).head<2>();
+
+    const ReprojectionFactor factor(anchor, target, ReprojectionFactor::sqrtInformation(460.0, 455.0, 1.5));
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bi), poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
+    EXPECT_GT(test::evaluateResidual(factor, params).norm(), 0.5);
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
+                         "reprojection seed " + std::to_string(seed)));
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+// The td sign convention is the physical one: images stamped td late (t_stamp = t_exposure + td),
+// states placed at the stamps (td_frame = 0); with the true td the residual vanishes to first
+// order, with td = 0 or the opposite sign it does not.
+TEST(ReprojectionTimeOffset, TrueDelayExplainsTheObservations) {
+  const test::AnalyticTrajectory traj;
+  std::mt19937 rng(11);
+  const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+  const double td_true = 0.01, t_i = 0.5, t_k = 0.8;
+  auto camera = [&](double t) { return traj.pose(t) * T_b_c; };
+  // A point 3 m in front of the camera at the anchor state time.
+  const Eigen::Vector3d X = camera(t_i) * Eigen::Vector3d(0.3, -0.2, 3.0);
+  auto project = [&](double t) { return Eigen::Vector2d((camera(t).inverse() * X).hnormalized()); };
+  auto observe = [&](double t_stamp) {
+    FeatureObservation o;
+    const double t_exposure = t_stamp - td_true;
+    o.uv = project(t_exposure);
+    const double h = 1e-5;
+    o.velocity = (project(t_exposure + h) - project(t_exposure - h)) / (2 * h);
+    o.td_frame = 0.0;
+    return o;
+  };
+  const FeatureObservation anchor = observe(t_i), target = observe(t_k);
+  const double lambda = (X - camera(t_i).translation()).norm();
+  auto residual = [&](double td) {
+    return reprojectionResidual(anchor, target, traj.pose(t_i), traj.pose(t_k), T_b_c, lambda, td).norm();
+  };
+  EXPECT_GT(residual(0.0), 1e-3);  // the delay matters at this motion
+  EXPECT_LT(residual(td_true), 0.05 * residual(0.0));
+  EXPECT_GT(residual(-td_true), residual(0.0));
+}
+
+TEST(FactorJacobians, ReprojectionFactorRejectsPointsBehindTheCamera) {
+  FeatureObservation anchor, target;
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_l_bk = I;
+  T_l_bk.translation() = Eigen::Vector3d(0, 0, 5.0);  // camera = body, feature at z = 2 lies behind it
+  const ReprojectionFactor factor(anchor, target, Eigen::Matrix2d::Identity());
+  std::vector<std::vector<double>> params = {poseBlock(I), poseBlock(T_l_bk), poseBlock(I), {2.0}, {0.0}};
+  std::vector<const double*> ptrs;
+  for (auto& p : params) ptrs.push_back(p.data());
+  double r[2];
+  EXPECT_FALSE(factor.Evaluate(ptrs.data(), r, nullptr));
+}
+
+TEST(FactorJacobians, SonarDepthFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(200 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
+    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
+    T_b_s.translation() = randomVector(rng, 0.3);
+    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();  // roll/pitch matter
+    T_l_bk.translation() = randomVector(rng, 3.0);
+
+    const FeatureObservation anchor = randomObservation(rng);
+    const double range = 3.0 + randomVector(rng, 1.0).x();
+    const double lambda = 3.0 + randomVector(rng, 1.0).x();
+    const double td = randomVector(rng, 0.02).x();
+    const SonarDepthFactor factor(anchor, range, T_b_s, 0.07);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
+                         "sonar seed " + std::to_string(seed)));
+
+    // The residual does not depend on the keyframe's position (it cancels).
+    std::vector<std::vector<double>> moved = params;
+    moved[0][0] += 1.3;
+    moved[0][2] -= 0.7;
+    EXPECT_NEAR(test::evaluateResidual(factor, moved)(0), test::evaluateResidual(factor, params)(0), 1e-12);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
+  // Level body 3 m above a flat seabed at z = 0, sonar and camera looking straight down.
+  std::mt19937 rng(7);
+  Eigen::Isometry3d T_down = Eigen::Isometry3d::Identity();
+  T_down.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  Eigen::Isometry3d T_l_b = Eigen::Isometry3d::Identity();
+  T_l_b.translation() = Eigen::Vector3d(1.0, 2.0, 3.0);
+  FeatureObservation anchor;
+  anchor.uv = Eigen::Vector2d(0.2, -0.1);
+  const double lambda_true = 3.0 * std::sqrt(1.0 + 0.2 * 0.2 + 0.1 * 0.1);  // ray length to z = 0
+  EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda_true, 0.0), 0.0, 1e-12);
+  // Feature 0.2 m higher than the seabed (shorter ray): residual = seabed - feature height = -0.2.
+  const double lambda_high = 2.8 * std::sqrt(1.0 + 0.2 * 0.2 + 0.1 * 0.1);
+  EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0), -0.2, 1e-12);
+
+  const SonarDepthOptions options;
+  const double sigma = options.sigma(0.02);
+  EXPECT_TRUE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_true, 0.0, sigma, options).consistent);
+  const SonarGateResult off = sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0, sigma, options);
+  EXPECT_FALSE(off.consistent);  // 0.2 m at sigma ~5.4 cm: chi2 ~ 14 > 6.6
+  EXPECT_NEAR(off.chi2, 0.04 / (sigma * sigma), 1e-9);
+  SonarDepthOptions loose = options;
+  loose.gate_chi2 = 100.0;
+  EXPECT_TRUE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0, sigma, loose).consistent);
+  loose.gate_max_height_difference = 0.1;  // absolute gate alone rejects it
+  EXPECT_FALSE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0, sigma, loose).consistent);
+  (void)rng;
+}
+
+TEST(FactorJacobians, PosePriorFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(300 + seed);
+    const Eigen::Vector3d p0 = randomVector(rng, 3.0);
+    const Eigen::Quaterniond q0 = randomRotation(rng, 3.0);
+    Matrix6d S = Matrix6d::Random() * 0.3;
+    S.diagonal() += Vector6d::Constant(2.0);
+    S = S.triangularView<Eigen::Upper>();
+    const PosePriorFactor factor(p0, q0, S);
+    std::vector<std::vector<double>> params = {poseBlock(p0 + randomVector(rng, 1.0), q0 * randomRotation(rng, 0.8))};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose}, kStep, kTol, "prior seed " + std::to_string(seed)));
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(PosePrior, PositionYawGaugeLeavesRollPitchFree) {
+  const PosePriorFactor factor(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(),
+                               PosePriorFactor::positionYawSqrtInformation(0.01, 0.01));
+  auto cost = [&](const Eigen::Quaterniond& q) {
+    return test::evaluateResidual(factor, {poseBlock(Eigen::Vector3d::Zero(), q)}).norm();
+  };
+  EXPECT_LT(cost(so3::exp(Eigen::Vector3d(0.2, -0.1, 0.0))), 0.03);  // roll/pitch: second order only
+  EXPECT_NEAR(cost(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.1))), 10.0, 1e-9);  // yaw: 0.1 rad / 0.01
+}
+
+TEST(FactorJacobians, RelativePoseFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(400 + seed);
+    const Eigen::Vector3d p_ij = randomVector(rng, 2.0);
+    const Eigen::Quaterniond q_ij = randomRotation(rng, 1.0);
+    Matrix6d S = Matrix6d::Identity() * 3.0;
+    S(0, 4) = 0.5;
+    S(2, 3) = -0.4;
+    const RelativePoseFactor factor(p_ij, q_ij, S);
+    const Eigen::Vector3d p_i = randomVector(rng, 3.0);
+    const Eigen::Quaterniond q_i = randomRotation(rng, 3.0);
+    std::vector<std::vector<double>> params = {
+        poseBlock(p_i, q_i),
+        poseBlock(p_i + q_i * p_ij + randomVector(rng, 0.5), q_i * q_ij * randomRotation(rng, 0.7))};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose}, kStep, kTol, "relative seed " + std::to_string(seed)));
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(FactorJacobians, MarginalizationFactorAwayFromTheLinearisationPoint) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(500 + seed);
+    auto prior = std::make_shared<MarginalizationPrior>();
+    const std::vector<int> sizes = {7, 9, 7, 1};
+    const std::vector<BlockManifold> manifolds = {kPose, kEuclid, kPose, kEuclid};
+    std::vector<std::vector<double>> x0_blocks = {poseBlock(randomVector(rng, 2.0), randomRotation(rng, 3.0)),
+                                                  std::vector<double>(9), poseBlock(randomVector(rng, 2.0), randomRotation(rng, 3.0)),
+                                                  {1.7}};
+    for (double& v : x0_blocks[1]) v = randomVector(rng, 1.0).x();
+    for (size_t b = 0; b < sizes.size(); ++b) {
+      prior->blocks.push_back(x0_blocks[b].data());
+      prior->ambient_sizes.push_back(sizes[b]);
+      prior->manifolds.push_back(manifolds[b]);
+      prior->x0.push_back(Eigen::Map<const Eigen::VectorXd>(x0_blocks[b].data(), sizes[b]));
+    }
+    prior->J = Eigen::MatrixXd::Random(18, 22);
+    prior->r0 = Eigen::VectorXd::Random(18);
+    const MarginalizationFactor factor(prior);
+
+    // Evaluate away from x0 (rotations 0.6 rad off) so Jr^{-1} in the pose difference matters.
+    std::vector<std::vector<double>> params = x0_blocks;
+    Eigen::Matrix<double, 6, 1> d;
+    for (int b : {0, 2}) {
+      d << randomVector(rng, 0.5), randomVector(rng, 0.6);
+      PoseManifold().Plus(x0_blocks[b].data(), d.data(), params[b].data());
+    }
+    for (double& v : params[1]) v += randomVector(rng, 0.3).x();
+    params[3][0] += 0.4;
+    worst = std::max(worst, test::checkJacobians(factor, params, manifolds, kStep, kTol, "marginalization seed " + std::to_string(seed)));
+
+    // At x0 the residual is r0.
+    EXPECT_LT((test::evaluateResidual(factor, x0_blocks) - prior->r0).norm(), 1e-12);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+}  // namespace
+}  // namespace vims
