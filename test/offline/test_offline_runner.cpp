@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <ros/time.h>
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sensor_msgs/Imu.h>
 #include <yaml-cpp/yaml.h>
 
@@ -70,6 +71,43 @@ TEST(OfflineRunner, WritesSummaryWithMessageCountsAndRealTimeFactor) {
   EXPECT_NEAR(messages["/sonar/range"]["count"].as<double>(), 10.0 * duration, 2.0);
   EXPECT_EQ(messages["/imu0"]["type"].as<std::string>(), "sensor_msgs/Imu");
   EXPECT_EQ(messages["/imu0"]["rejected"].as<int>(), 0);
+
+  // Front-end outputs: one sonar row per message; one signature per 0.4 s hop after the first 2 s window.
+  const auto countLines = [](const fs::path& path, std::string* header) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, *header);
+    int rows = 0;
+    while (std::getline(in, line)) rows += line.empty() ? 0 : 1;
+    return rows;
+  };
+  std::string header;
+  EXPECT_EQ(countLines(out / "sonar_filtered.csv", &header), messages["/sonar/range"]["count"].as<int>());
+  EXPECT_EQ(header, "t,raw_range,filtered_range,accepted,status");
+  const int windows = countLines(out / "mag_signatures.csv", &header);
+  EXPECT_EQ(header, "t,E,N,U,snr,valid,invalid_reason");
+  EXPECT_NEAR(windows, (duration - 2.0) / 0.4, 3.0);
+  EXPECT_EQ(summary["magnetometer"]["windows"].as<int>(), windows);
+  EXPECT_GT(summary["sonar_filter"]["accepted"].as<int>(), 0.9 * messages["/sonar/range"]["count"].as<int>());
+}
+
+TEST(OfflineRunner, RunsWithoutOptionalSensorsAndSaysSo) {
+  const std::string seq = testData("tank30");
+  ASSERT_FALSE(seq.empty());
+  // Copy the camera and IMU messages only: no sonar, no magnetometer.
+  const fs::path dir = freshDir("cam_imu_only");
+  fs::copy_file(fs::path(seq) / "tank30.yaml", dir / "cam_imu_only.yaml");
+  {
+    rosbag::Bag in((fs::path(seq) / "tank30.bag").string(), rosbag::bagmode::Read);
+    rosbag::Bag out((dir / "cam_imu_only.bag").string(), rosbag::bagmode::Write);
+    rosbag::View view(in, rosbag::TopicQuery(std::vector<std::string>{"/cam0/image_raw", "/imu0"}));
+    for (const rosbag::MessageInstance& m : view) out.write(m.getTopic(), m.getTime(), m);
+  }
+  const CommandResult r =
+      runCommand(offlineBinary() + " --quiet --sequence " + dir.string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no '/sonar/range' messages"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no '/mag/raw' messages"), std::string::npos) << r.output;
 }
 
 TEST(OfflineRunner, MissingSequenceFilesAreNamed) {

@@ -42,32 +42,64 @@ class ProgressPrinter {
 
 }  // namespace
 
+SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
+  SystemConfig config;
+  const ConfigReader root = path.empty() ? ConfigReader::fromString("{}", "built-in defaults") : ConfigReader::fromFile(path);
+  root.rejectUnknownKeys({"sonar", "magnetometer"});
+  config.sonar = SonarFilterOptions::fromReader(root.childOrEmpty("sonar"));
+  const ConfigReader mag = root.childOrEmpty("magnetometer");
+  config.magnetometer = MagnetometerOptions::fromReader(mag);
+  config.magnetometer.validateFor(sequence.magnetometer, mag);
+  return config;
+}
+
 OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger)
     : options_(options), logger_(std::move(logger)) {
   paths_ = SequencePaths::resolve(options_.sequence_dir);
   std::vector<std::string> unknown;
   sequence_ = SequenceConfig::load(paths_.yaml, &unknown);
   for (const auto& key : unknown) logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
-  if (!options_.config_path.empty()) {
-    const ConfigReader system = ConfigReader::fromFile(options_.config_path);
-    system.rejectUnknownKeys({});
-  }
+  config_ = SystemConfig::load(options_.config_path, sequence_);
   std::error_code ec;
   fs::create_directories(options_.out_dir, ec);
   if (ec || !fs::is_directory(options_.out_dir)) {
     throw std::runtime_error("cannot create output directory '" + options_.out_dir + "': " + ec.message());
   }
+  const fs::path out(options_.out_dir);
+  sonar_filter_ = std::make_unique<SonarAltitudeFilter>(config_.sonar, sequence_.sonar, logger_);
+  signature_extractor_ = std::make_unique<SignatureExtractor>(config_.magnetometer, sequence_.magnetometer,
+                                                              sequence_.imu.gravity, logger_);
+  sonar_csv_ = std::make_unique<SonarCsvWriter>((out / "sonar_filtered.csv").string());
+  signature_csv_ = std::make_unique<SignatureCsvWriter>((out / "mag_signatures.csv").string());
 }
 
 OfflinePipeline::~OfflinePipeline() = default;
 
-void OfflinePipeline::onImu(const ImuSample&) {}
+void OfflinePipeline::onImu(const ImuSample& sample) { signature_extractor_->feedImu(sample); }
+
 void OfflinePipeline::onImage(const CameraFrame&) {}
-void OfflinePipeline::onSonar(const SonarRange&) {}
-void OfflinePipeline::onMag(const MagSample&) {}
+
+void OfflinePipeline::onSonar(const SonarRange& range) {
+  sonar_results_.clear();
+  sonar_filter_->feed(range, &sonar_results_);
+  for (const auto& result : sonar_results_) sonar_csv_->write(result);
+}
+
+void OfflinePipeline::onMag(const MagSample& sample) {
+  signature_windows_.clear();
+  signature_extractor_->feedMag(sample, &signature_windows_, nullptr);
+  for (const auto& window : signature_windows_) signature_csv_->write(window);
+}
 
 OfflineSummary OfflinePipeline::run() {
   SequenceBagReader reader(paths_.bag, sequence_);
+  // Camera and IMU carry the odometry: without them there is nothing to run. Sonar and
+  // magnetometer only improve it: their absence is worth a warning, not a failure.
+  reader.requireTopic(sequence_.topics.image);
+  reader.requireTopic(sequence_.topics.imu);
+  for (const std::string& topic : reader.missingTopics()) {
+    logger_->warn("offline", "the bag has no '" + topic + "' messages: running without that sensor");
+  }
   const auto wall_start = std::chrono::steady_clock::now();
   auto wall_seconds = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -87,6 +119,13 @@ OfflineSummary OfflinePipeline::run() {
   OfflineSummary summary;
   summary.sequence_name = paths_.name;
   summary.topics = reader.run(handlers);
+  sonar_results_.clear();
+  sonar_filter_->flush(&sonar_results_);
+  for (const auto& result : sonar_results_) sonar_csv_->write(result);
+  sonar_csv_->flush();
+  signature_csv_->flush();
+  summary.sonar = sonar_filter_->stats();
+  summary.magnetometer = signature_extractor_->stats();
   summary.wall_time_s = wall_seconds();
   summary.sequence_duration_s = span;
   summary.real_time_factor = summary.wall_time_s > 0 ? span / summary.wall_time_s : 0.0;
@@ -106,6 +145,12 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "wall_time_s: " << s.wall_time_s << "\n";
   out << "sequence_duration_s: " << s.sequence_duration_s << "\n";
   out << "real_time_factor: " << s.real_time_factor << "\n";
+  out << "sonar_filter: {samples: " << s.sonar.samples << ", accepted: " << s.sonar.accepted
+      << ", outliers: " << s.sonar.outliers << ", dropouts: " << s.sonar.dropouts
+      << ", warming_up: " << s.sonar.warming_up << ", resets: " << s.sonar.resets << "}\n";
+  out << "magnetometer: {samples: " << s.magnetometer.mag_samples << ", windows: " << s.magnetometer.windows
+      << ", valid_windows: " << s.magnetometer.valid_windows << ", resets: " << s.magnetometer.resets
+      << ", nonfinite: " << s.magnetometer.nonfinite << ", duplicates: " << s.magnetometer.duplicates << "}\n";
   out << "messages:\n";
   for (const auto& [topic, stats] : s.topics) {
     out << "  " << topic << ": {type: " << stats.type << ", count: " << stats.messages

@@ -12,6 +12,12 @@
 #include <string>
 
 #include "vims_common/log.h"
+#include "vims_magnetometer/magnetometer_options.h"
+#include "vims_magnetometer/signature_csv_writer.h"
+#include "vims_magnetometer/signature_extractor.h"
+#include "vims_sonar/sonar_altitude_filter.h"
+#include "vims_sonar/sonar_csv_writer.h"
+#include "vims_sonar/sonar_filter_options.h"
 #include "vims_common/sensor_data.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
@@ -26,6 +32,16 @@ struct OfflineOptions {
   bool show_progress = true;
 };
 
+/// The system configuration (config/vims.yaml): one section per module. Every section and key
+/// is optional (defaults are the option structs' defaults); unknown ones are errors.
+struct SystemConfig {
+  SonarFilterOptions sonar;
+  MagnetometerOptions magnetometer;
+
+  /// Reads `path` (empty: defaults) and validates it against the sequence's sensors.
+  static SystemConfig load(const std::string& path, const SequenceConfig& sequence);
+};
+
 /// What summary.yaml reports.
 struct OfflineSummary {
   std::string sequence_name;
@@ -33,6 +49,8 @@ struct OfflineSummary {
   double sequence_duration_s = 0.0;
   double real_time_factor = 0.0;
   std::map<std::string, TopicStats> topics;
+  SonarFilterStats sonar;
+  SignatureExtractorStats magnetometer;
 };
 
 class OfflinePipeline {
@@ -56,6 +74,15 @@ class OfflinePipeline {
   LoggerPtr logger_;
   SequencePaths paths_;
   SequenceConfig sequence_;
+  SystemConfig config_;
+
+  // Sensor front-ends (the same cores vims_sonar_filter_node and vims_magnetometer_node wrap).
+  std::unique_ptr<SonarAltitudeFilter> sonar_filter_;
+  std::unique_ptr<SignatureExtractor> signature_extractor_;
+  std::unique_ptr<SonarCsvWriter> sonar_csv_;
+  std::unique_ptr<SignatureCsvWriter> signature_csv_;
+  std::vector<SonarFilterResult> sonar_results_;       // reused buffers: no allocation per message
+  std::vector<SignatureWindow> signature_windows_;
 };
 
 }  // namespace vims

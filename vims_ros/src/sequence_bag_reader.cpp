@@ -2,6 +2,7 @@
 
 #include <rosbag/view.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "vims_ros/conversions.h"
@@ -9,7 +10,7 @@
 namespace vims {
 
 SequenceBagReader::SequenceBagReader(const std::string& bag_path, const SequenceConfig& config)
-    : bag_(std::make_unique<rosbag::Bag>()), config_(config) {
+    : bag_(std::make_unique<rosbag::Bag>()), config_(config), bag_path_(bag_path) {
   try {
     bag_->open(bag_path, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& e) {
@@ -27,8 +28,8 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
   for (const auto& [topic, type] : expected) {
     const auto it = present.find(topic);
     if (it == present.end()) {
-      throw std::runtime_error("bag '" + bag_path + "' has no topic '" + topic + "' (" + type +
-                               "); set the topic names under 'topics:' in the sequence YAML");
+      missing_topics_.push_back(topic);
+      continue;
     }
     if (it->second != type) {
       throw std::runtime_error("bag '" + bag_path + "': topic '" + topic + "' has type " + it->second +
@@ -40,6 +41,17 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
 }
 
 SequenceBagReader::~SequenceBagReader() = default;
+
+bool SequenceBagReader::hasTopic(const std::string& topic) const {
+  return std::find(missing_topics_.begin(), missing_topics_.end(), topic) == missing_topics_.end();
+}
+
+void SequenceBagReader::requireTopic(const std::string& topic) const {
+  if (!hasTopic(topic)) {
+    throw std::runtime_error("bag '" + bag_path_ + "' has no topic '" + topic +
+                             "'; set the topic names under 'topics:' in the sequence YAML");
+  }
+}
 
 std::map<std::string, TopicStats> SequenceBagReader::run(const Handlers& handlers) {
   const std::vector<std::string> topics = {config_.topics.image, config_.topics.imu, config_.topics.sonar,

@@ -36,14 +36,19 @@ class SequenceBagReader {
     std::function<void(double fraction)> progress;
   };
 
-  /// Opens the bag. Throws std::runtime_error if it cannot be opened, if a contract topic
-  /// (image, imu, sonar, mag, named by the sequence YAML) is absent, or if a topic has the
-  /// wrong message type; the message names the topic.
+  /// Opens the bag. Throws std::runtime_error if it cannot be opened or if a contract topic
+  /// has the wrong message type (the message names the topic). Absent topics are listed by
+  /// missingTopics(): the caller decides which sensors it cannot run without.
   SequenceBagReader(const std::string& bag_path, const SequenceConfig& config);
   ~SequenceBagReader();
 
   double startTime() const { return start_time_; }
   double endTime() const { return end_time_; }
+  /// Contract topics (as named by the sequence YAML) with no messages in the bag.
+  const std::vector<std::string>& missingTopics() const { return missing_topics_; }
+  bool hasTopic(const std::string& topic) const;
+  /// Throws std::runtime_error naming `topic` if the bag does not have it.
+  void requireTopic(const std::string& topic) const;
 
   /// Reads every sensor message in recorded order. Returns per-topic statistics.
   std::map<std::string, TopicStats> run(const Handlers& handlers);
@@ -53,6 +58,8 @@ class SequenceBagReader {
   SequenceConfig config_;
   double start_time_ = 0.0;
   double end_time_ = 0.0;
+  std::string bag_path_;
+  std::vector<std::string> missing_topics_;
 };
 
 }  // namespace vims
