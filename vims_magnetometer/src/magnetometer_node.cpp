@@ -22,21 +22,9 @@
 #include "vims_common/sequence_config.h"
 #include "vims_magnetometer/signature_extractor.h"
 #include "vims_ros/conversions.h"
+#include "vims_ros/ros_logger.h"
 
 namespace {
-
-vims::LoggerPtr rosLogger() {
-  return std::make_shared<vims::Logger>(
-      [](vims::LogLevel level, const std::string& component, const std::string& message) {
-        switch (level) {
-          case vims::LogLevel::kDebug: ROS_DEBUG_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kInfo: ROS_INFO_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kWarn: ROS_WARN_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kError: ROS_ERROR_STREAM_NAMED(component, message); break;
-        }
-      },
-      vims::LogLevel::kDebug);
-}
 
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
   geometry_msgs::Vector3 out;
@@ -51,7 +39,7 @@ class MagnetometerNode {
   MagnetometerNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::MagnetometerOptions& options,
                    const std::string& mag_topic, const std::string& imu_topic, std::string world_frame,
                    std::string body_frame)
-      : extractor_(options, sequence.magnetometer, sequence.imu.gravity, rosLogger()),
+      : extractor_(options, sequence.magnetometer, sequence.imu.gravity, vims::rosLogger()),
         world_frame_(std::move(world_frame)),
         body_frame_(std::move(body_frame)) {
     signature_pub_ = nh.advertise<vims::MagneticSignature>("mag/signature", 20);

@@ -15,28 +15,16 @@
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
 #include "vims_ros/conversions.h"
+#include "vims_ros/ros_logger.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 
 namespace {
-
-vims::LoggerPtr rosLogger() {
-  return std::make_shared<vims::Logger>(
-      [](vims::LogLevel level, const std::string& component, const std::string& message) {
-        switch (level) {
-          case vims::LogLevel::kDebug: ROS_DEBUG_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kInfo: ROS_INFO_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kWarn: ROS_WARN_STREAM_NAMED(component, message); break;
-          case vims::LogLevel::kError: ROS_ERROR_STREAM_NAMED(component, message); break;
-        }
-      },
-      vims::LogLevel::kDebug);
-}
 
 class SonarFilterNode {
  public:
   SonarFilterNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::SonarFilterOptions& options,
                   const std::string& input_topic)
-      : filter_(options, sequence.sonar, rosLogger()) {
+      : filter_(options, sequence.sonar, vims::rosLogger()) {
     pub_ = nh.advertise<sensor_msgs::Range>("sonar/filtered", 50);
     sub_ = nh.subscribe(input_topic, 50, &SonarFilterNode::onRange, this);
     ROS_INFO_STREAM("sonar filter: " << sub_.getTopic() << " -> " << pub_.getTopic() << ", noise "
