@@ -1,0 +1,293 @@
+#include "vims_sim/seabed_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "vims_sim/camera_model.h"
+
+namespace vims {
+namespace sim {
+namespace {
+
+constexpr int kResponseLutSize = 16384;
+constexpr float kRangeTableStep = 0.005f;  // [m]; the range terms are smooth, linear interpolation suffices
+
+/// Rec.709 opto-electronic transfer function (the usual camera response), linear in [0, 1].
+double rec709(double linear) {
+  linear = std::min(1.0, std::max(0.0, linear));
+  return linear < 0.018 ? 4.5 * linear : 1.099 * std::pow(linear, 0.45) - 0.099;
+}
+
+/// Continuous mip level of a footprint ratio x = footprint / texel: floor(log2 x) plus the
+/// position within the octave, linear in x (mantissa - 1), as GPUs blend mip levels; 0 below 1.
+inline float mipLevel(float x) {
+  if (!(x > 1.0f)) return 0.0f;
+  uint32_t bits;
+  std::memcpy(&bits, &x, sizeof(bits));
+  const int exponent = static_cast<int>((bits >> 23) & 0xFF) - 127;
+  bits = (bits & 0x007FFFFFu) | 0x3F800000u;  // mantissa in [1, 2)
+  float mantissa;
+  std::memcpy(&mantissa, &bits, sizeof(mantissa));
+  return static_cast<float>(exponent) + (mantissa - 1.0f);
+}
+
+}  // namespace
+
+SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared_ptr<const SeabedTexture> texture,
+                               UnderwaterOptics optics)
+    : calib_(calibration), texture_(std::move(texture)), optics_(optics) {
+  if (!texture_) throw std::invalid_argument("SeabedRenderer: no texture");
+  if (calib_.width <= 1 || calib_.height <= 1) throw std::invalid_argument("SeabedRenderer: bad image size");
+  const PinholeRadtanCamera camera(calib_);
+  const int width = calib_.width, height = calib_.height;
+  const size_t n = static_cast<size_t>(width) * height;
+  // Undistort every pixel's ray once, including a one-pixel border for the pixel angles.
+  std::vector<Eigen::Vector3d> unit((width + 1) * static_cast<size_t>(height + 1));
+  for (int v = 0; v <= height; ++v)
+    for (int u = 0; u <= width; ++u) unit[static_cast<size_t>(v) * (width + 1) + u] = camera.unproject(Eigen::Vector2d(u, v)).normalized();
+  rays_c_.resize(n);
+  ray_norm_.resize(n);
+  pixel_angle_.resize(n);
+  lamp_vignette_.resize(n);
+  const double beam_angle = optics_.lamp_beam_half_angle_deg * M_PI / 180.0;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const size_t i = static_cast<size_t>(v) * width + u;
+      const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(u, v));
+      rays_c_[i] = ray.cast<float>();
+      ray_norm_[i] = static_cast<float>(ray.norm());
+      const Eigen::Vector3d& here = unit[static_cast<size_t>(v) * (width + 1) + u];
+      const double right = std::acos(std::min(1.0, here.dot(unit[static_cast<size_t>(v) * (width + 1) + u + 1])));
+      const double down = std::acos(std::min(1.0, here.dot(unit[static_cast<size_t>(v + 1) * (width + 1) + u])));
+      pixel_angle_[i] = static_cast<float>(std::max(right, down));
+      const double cos_off_axis = 1.0 / ray.norm();
+      const double off_axis = std::acos(cos_off_axis);
+      const double beam = std::exp(-(off_axis / beam_angle) * (off_axis / beam_angle));
+      lamp_vignette_[i] = static_cast<float>(beam * std::pow(cos_off_axis, optics_.vignetting_exponent));
+    }
+  }
+  // Lamp gain from the reference: white seabed, on axis, at reference_range -> reference_signal.
+  const double r_ref = optics_.reference_range;
+  const double lamp_gain = optics_.reference_signal * r_ref * r_ref * std::exp(2.0 * optics_.attenuation * r_ref);
+  const int table_size = static_cast<int>(std::ceil(optics_.max_range / kRangeTableStep)) + 2;
+  range_irradiance_.resize(table_size);
+  range_haze_.resize(table_size);
+  for (int k = 0; k < table_size; ++k) {
+    const double r = std::max(1e-3, k * static_cast<double>(kRangeTableStep));
+    range_irradiance_[k] = static_cast<float>(lamp_gain * std::exp(-2.0 * optics_.attenuation * r) / (r * r));
+    range_haze_[k] = static_cast<float>(optics_.backscatter * (1.0 - std::exp(-r / optics_.backscatter_range)));
+  }
+  response_lut_.resize(kResponseLutSize);
+  for (int i = 0; i < kResponseLutSize; ++i) {
+    response_lut_[i] = static_cast<uint8_t>(std::lround(255.0 * rec709(static_cast<double>(i) / (kResponseLutSize - 1))));
+  }
+}
+
+void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws) const {
+  const int width = calib_.width, height = calib_.height;
+  const size_t n = static_cast<size_t>(width) * height;
+  const Eigen::Matrix3f R_w_c = T_w_c.linear().cast<float>();
+  const Eigen::Vector3d p_w_c = T_w_c.translation();
+  const float altitude = static_cast<float>(p_w_c.z());
+  const int levels = texture_->levels();
+  if (levels > 16) throw std::invalid_argument("SeabedRenderer: at most 16 mip levels");
+  const float inverse_texel0 = static_cast<float>(1.0 / texture_->texelSize(0));
+  ws.ground_x.resize(n);
+  ws.ground_y.resize(n);
+  ws.range.resize(n);
+  ws.cos_incidence.resize(n);
+  ws.level.resize(n);
+  ws.hit.resize(n);
+  ws.maps.resize(levels);
+  ws.sampled.resize(levels);
+
+  // 1. Ray-plane intersection with the seabed z = 0 (ground point relative to the camera), and
+  // the mip level from the pixel footprint there: the pixel's angle times the range, stretched
+  // by 1/cos(incidence) along the slant. Also which levels are used and the seen region.
+  const float max_range = static_cast<float>(optics_.max_range);
+  const float top_level = static_cast<float>(levels - 1);
+  float* ground_x = ws.ground_x.data();
+  float* ground_y = ws.ground_y.data();
+  float* range = ws.range.data();
+  float* cos_incidence = ws.cos_incidence.data();
+  float* level = ws.level.data();
+  uint8_t* hit = ws.hit.data();
+  constexpr int kMaxLevels = 16;
+  uint8_t finer_level_used[kMaxLevels] = {0};
+  float seen_min_x = std::numeric_limits<float>::max(), seen_max_x = -std::numeric_limits<float>::max();
+  float seen_min_y = std::numeric_limits<float>::max(), seen_max_y = -std::numeric_limits<float>::max();
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f d = R_w_c * rays_c_[i];
+    hit[i] = 0;
+    if (altitude <= 0.0f || d.z() > -1e-6f) continue;
+    const float t = -altitude / d.z();
+    const float r = t * ray_norm_[i];
+    if (r > max_range) continue;
+    const float cos_inc = -d.z() / ray_norm_[i];
+    const float x = t * d.x(), y = t * d.y();
+    hit[i] = 1;
+    ground_x[i] = x;
+    ground_y[i] = y;
+    range[i] = r;
+    cos_incidence[i] = cos_inc;
+    const float footprint = r * pixel_angle_[i] / cos_inc;
+    const float lambda = std::min(top_level, mipLevel(footprint * inverse_texel0));
+    level[i] = lambda;
+    finer_level_used[static_cast<int>(lambda)] = 1;
+    seen_min_x = std::min(seen_min_x, x);
+    seen_max_x = std::max(seen_max_x, x);
+    seen_min_y = std::min(seen_min_y, y);
+    seen_max_y = std::max(seen_max_y, y);
+  }
+  // Level l is read by the pixels whose finer level is l or l - 1. Its patch covers the whole
+  // seen region; only if that is unreasonably large (a far, grazing view) it is narrowed to the
+  // pixels that actually read the level.
+  constexpr int64_t kMaxPatchTexels = 2048 * 2048;
+  std::vector<float> min_x(levels), max_x(levels), min_y(levels), max_y(levels);
+  std::vector<uint8_t> level_used(levels, 0);
+  for (int l = 0; l < levels; ++l) {
+    level_used[l] = finer_level_used[l] || (l > 0 && finer_level_used[l - 1]);
+    if (!level_used[l]) continue;
+    min_x[l] = seen_min_x;
+    max_x[l] = seen_max_x;
+    min_y[l] = seen_min_y;
+    max_y[l] = seen_max_y;
+    const double s = texture_->texelSize(l);
+    const double texels = ((seen_max_x - seen_min_x) / s + 6.0) * ((seen_max_y - seen_min_y) / s + 6.0);
+    if (texels <= static_cast<double>(kMaxPatchTexels)) continue;
+    min_x[l] = min_y[l] = std::numeric_limits<float>::max();
+    max_x[l] = max_y[l] = -std::numeric_limits<float>::max();
+    for (size_t i = 0; i < n; ++i) {
+      if (!hit[i]) continue;
+      const int l0 = static_cast<int>(level[i]);
+      if (l0 != l && l0 + 1 != l) continue;
+      min_x[l] = std::min(min_x[l], ground_x[i]);
+      max_x[l] = std::max(max_x[l], ground_x[i]);
+      min_y[l] = std::min(min_y[l], ground_y[i]);
+      max_y[l] = std::max(max_y[l], ground_y[i]);
+    }
+  }
+
+  // 2. Per used level: copy the covered seabed region out of the tile cache and sample it
+  // bilinearly at every pixel's ground point (cv::remap). Map entries of pixels that do not
+  // use a level are left as they are: their samples are never read.
+  float origin_x[kMaxLevels], origin_y[kMaxLevels], inverse_texel[kMaxLevels];
+  cv::Vec2f* map[kMaxLevels];
+  std::vector<cv::Mat> patches(levels);
+  for (int l = 0; l < levels; ++l) {
+    map[l] = nullptr;
+    if (!level_used[l]) continue;
+    const double s = texture_->texelSize(l);
+    const auto gx0 = static_cast<int64_t>(std::floor((p_w_c.x() + min_x[l]) / s)) - 2;
+    const auto gy0 = static_cast<int64_t>(std::floor((p_w_c.y() + min_y[l]) / s)) - 2;
+    const auto gx1 = static_cast<int64_t>(std::floor((p_w_c.x() + max_x[l]) / s)) + 3;
+    const auto gy1 = static_cast<int64_t>(std::floor((p_w_c.y() + max_y[l]) / s)) + 3;
+    patches[l].create(static_cast<int>(gy1 - gy0), static_cast<int>(gx1 - gx0), CV_8UC1);
+    texture_->fillPatch(l, gx0, gy0, patches[l]);
+    // Patch texel coordinates of a ground point: (p + x) / s - g0 - 0.5 (texel centres).
+    origin_x[l] = static_cast<float>(p_w_c.x() / s - static_cast<double>(gx0) - 0.5);
+    origin_y[l] = static_cast<float>(p_w_c.y() / s - static_cast<double>(gy0) - 0.5);
+    inverse_texel[l] = static_cast<float>(1.0 / s);
+    if (ws.maps[l].rows != height || ws.maps[l].cols != width || ws.maps[l].type() != CV_32FC2) {
+      ws.maps[l] = cv::Mat(height, width, CV_32FC2, cv::Scalar(0, 0));
+    }
+    map[l] = ws.maps[l].ptr<cv::Vec2f>();
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (!hit[i]) continue;
+    const int l0 = static_cast<int>(level[i]);
+    const int l1 = std::min(l0 + 1, levels - 1);
+    map[l0][i] = cv::Vec2f(origin_x[l0] + ground_x[i] * inverse_texel[l0], origin_y[l0] + ground_y[i] * inverse_texel[l0]);
+    map[l1][i] = cv::Vec2f(origin_x[l1] + ground_x[i] * inverse_texel[l1], origin_y[l1] + ground_y[i] * inverse_texel[l1]);
+  }
+  const uint8_t* sampled[kMaxLevels];
+  for (int l = 0; l < levels; ++l) {
+    sampled[l] = nullptr;
+    if (patches[l].empty()) continue;
+    cv::remap(patches[l], ws.sampled[l], ws.maps[l], cv::noArray(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    sampled[l] = ws.sampled[l].ptr<uint8_t>();
+  }
+
+  // 3. Photometry: lamp light on a Lambertian seabed plus backscatter haze, vignetted.
+  ws.signal.create(height, width, CV_32FC1);
+  float* out = ws.signal.ptr<float>();
+  const float saturated_haze = static_cast<float>(optics_.backscatter);
+  const float* irradiance_table = range_irradiance_.data();
+  const float* haze_table = range_haze_.data();
+  const int last_entry = static_cast<int>(range_irradiance_.size()) - 2;
+  const float inverse_step = 1.0f / kRangeTableStep;
+  for (size_t i = 0; i < n; ++i) {
+    if (!hit[i]) {
+      out[i] = lamp_vignette_[i] * saturated_haze;
+      continue;
+    }
+    const float lambda = level[i];
+    const int l0 = static_cast<int>(lambda);
+    const int l1 = std::min(l0 + 1, levels - 1);
+    const float f = lambda - static_cast<float>(l0);
+    const float a0 = sampled[l0][i];
+    const float a1 = sampled[l1][i];
+    const float albedo = (a0 + (a1 - a0) * f) * (1.0f / 255.0f);
+    // Range terms, linearly interpolated in their tables.
+    const float x = range[i] * inverse_step;
+    const int k = std::min(static_cast<int>(x), last_entry);
+    const float w = x - static_cast<float>(k);
+    const float irradiance = irradiance_table[k] + w * (irradiance_table[k + 1] - irradiance_table[k]);
+    const float haze = haze_table[k] + w * (haze_table[k + 1] - haze_table[k]);
+    out[i] = lamp_vignette_[i] * (albedo * irradiance * cos_incidence[i] + haze);
+  }
+}
+
+cv::Mat SeabedRenderer::renderSignal(const Eigen::Isometry3d& T_w_c) const {
+  Workspace ws;
+  computeSignal(T_w_c, ws);
+  return ws.signal;
+}
+
+cv::Mat SeabedRenderer::render(const Eigen::Isometry3d& T_w_c, uint64_t noise_seed, bool lamp_on) const {
+  Workspace ws;
+  return render(T_w_c, noise_seed, lamp_on, ws);
+}
+
+cv::Mat SeabedRenderer::render(const Eigen::Isometry3d& T_w_c, uint64_t noise_seed, bool lamp_on,
+                               Workspace& ws) const {
+  const int width = calib_.width, height = calib_.height;
+  if (lamp_on) {
+    computeSignal(T_w_c, ws);
+    cv::GaussianBlur(ws.signal, ws.blurred, cv::Size(5, 5), optics_.blur_sigma_px, optics_.blur_sigma_px,
+                     cv::BORDER_REFLECT);
+  } else {
+    ws.blurred.create(height, width, CV_32FC1);
+    ws.blurred.setTo(0.0f);
+  }
+  ws.noise.create(height, width, CV_32FC1);
+  cv::RNG rng(noise_seed | 1u);  // cv::RNG treats 0 specially
+  rng.fill(ws.noise, cv::RNG::NORMAL, 0.0, 1.0);
+
+  // Sensor: shot noise (Poisson, Gaussian approximation) and read noise in electrons, then the
+  // response curve to 8 bits.
+  cv::Mat image(height, width, CV_8UC1);
+  const float full_well = static_cast<float>(optics_.full_well_electrons);
+  const float read2 = static_cast<float>(optics_.read_noise_electrons * optics_.read_noise_electrons);
+  const float lut_scale = (kResponseLutSize - 1) / full_well;
+  const float lut_max = static_cast<float>(kResponseLutSize - 1);
+  const size_t n = static_cast<size_t>(width) * height;
+  const float* s = ws.blurred.ptr<float>();
+  const float* z = ws.noise.ptr<float>();
+  uint8_t* out = image.ptr<uint8_t>();
+  for (size_t i = 0; i < n; ++i) {
+    const float electrons = std::max(0.0f, s[i]) * full_well;
+    const float noisy = electrons + std::sqrt(electrons + read2) * z[i];
+    const float index = std::min(lut_max, std::max(0.0f, noisy * lut_scale));
+    out[i] = response_lut_[static_cast<size_t>(index + 0.5f)];
+  }
+  return image;
+}
+
+}  // namespace sim
+}  // namespace vims

@@ -1,0 +1,159 @@
+#include "vims_sim/sim_setup.h"
+
+#include <cmath>
+
+#include "vims_sim/random.h"
+
+namespace vims {
+namespace sim {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Sub-stream identifiers of the seeds.
+enum : uint64_t { kStreamSite = 0x5173, kStreamRig = 0x0219, kStreamImuBias = 0x1b1a, kStreamCoilPhase = 0xc01f };
+
+Eigen::Matrix3d smallRotation(Rng& rng, double max_angle) {
+  const Eigen::Vector3d v(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+  const Eigen::Vector3d rotation_vector = v * max_angle;
+  const double angle = rotation_vector.norm();
+  if (angle < 1e-12) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, rotation_vector / angle).toRotationMatrix();
+}
+
+Eigen::Isometry3d makeTransform(const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = p;
+  return T;
+}
+
+Eigen::Vector3d jitter(Rng& rng, const Eigen::Vector3d& nominal, const Eigen::Vector3d& half_range) {
+  return nominal + Eigen::Vector3d(rng.uniform(-1, 1) * half_range.x(), rng.uniform(-1, 1) * half_range.y(),
+                                   rng.uniform(-1, 1) * half_range.z());
+}
+
+}  // namespace
+
+SiteModel makeSite(Scenario scenario, uint64_t world_seed) {
+  Rng rng(deriveSeed(world_seed, kStreamSite));
+  SiteModel site;
+  site.geomagnetic.total = 49.0e-6 * (1.0 + rng.uniform(-0.02, 0.02));
+  site.geomagnetic.inclination_deg = 46.0 + rng.uniform(-1.0, 1.0);
+  site.geomagnetic.declination_deg = rng.sign() * rng.uniform(2.0, 6.0);
+
+  // Coil: a point on a leg of the base pattern (chosen proportionally to leg length), offset
+  // sideways by up to 2.5 m, kept inside the area.
+  const auto waypoints = scenarioLapWaypoints(scenario);
+  std::vector<double> cumulative;
+  double total = 0.0;
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    total += (waypoints[(i + 1) % waypoints.size()] - waypoints[i]).norm();
+    cumulative.push_back(total);
+  }
+  const double pick = rng.uniform(0.0, total);
+  size_t leg = 0;
+  while (leg + 1 < cumulative.size() && cumulative[leg] < pick) ++leg;
+  const Eigen::Vector2d a = waypoints[leg], b = waypoints[(leg + 1) % waypoints.size()];
+  const Eigen::Vector2d direction = (b - a).normalized();
+  const Eigen::Vector2d normal(-direction.y(), direction.x());
+  Eigen::Vector2d position = a + rng.uniform(0.15, 0.85) * (b - a) + rng.uniform(-2.5, 2.5) * normal;
+  const ScenarioArea area = scenarioArea(scenario);
+  position.x() = std::max(-area.half_size_x + 1.0, std::min(area.half_size_x - 1.0, position.x()));
+  position.y() = std::max(-area.half_size_y + 1.0, std::min(area.half_size_y - 1.0, position.y()));
+  site.coil.position_w = Eigen::Vector3d(position.x(), position.y(), 0.0);
+  site.coil.turns = 330;
+  site.coil.current = 2.9;
+  site.coil.diameter = 0.6;
+  site.coil.frequency = 11.0;
+  site.coil.phase = 0.0;
+  return site;
+}
+
+SimSetup buildSimSetup(const SimOptions& options) {
+  options.validate();
+  SimSetup setup;
+  setup.options = options;
+
+  TrajectoryParams trajectory_params;
+  trajectory_params.scenario = options.scenario;
+  trajectory_params.duration = options.duration;
+  trajectory_params.seed = options.seed;
+  trajectory_params.static_start = options.static_start;
+  // The model must cover every true sample time, including images shifted by the delay.
+  trajectory_params.margin = 5.0 + std::abs(options.camera_delay);
+  setup.trajectory = Trajectory::design(trajectory_params);
+
+  setup.imu = ImuNoiseParams::mti630();
+  setup.sonar = SonarParams();
+  setup.magnetometer = MagnetometerParams();
+
+  // --- The rig: calibrated once per vehicle set-up, so it follows the trajectory seed.
+  Rng rig(deriveSeed(options.seed, kStreamRig));
+  SequenceConfig& cfg = setup.config;
+  cfg.camera.model = "pinhole";
+  cfg.camera.width = 640;
+  cfg.camera.height = 480;
+  cfg.camera.fx = 420.0 * (1.0 + rig.uniform(-0.01, 0.01));
+  cfg.camera.fy = cfg.camera.fx * (1.0 + rig.uniform(-0.003, 0.003));
+  cfg.camera.cx = 319.5 + rig.uniform(-4.0, 4.0);
+  cfg.camera.cy = 239.5 + rig.uniform(-4.0, 4.0);
+  cfg.camera.distortion = {rig.uniform(-0.08, -0.04), rig.uniform(0.0, 0.015), rig.uniform(-5e-4, 5e-4),
+                           rig.uniform(-5e-4, 5e-4)};
+  cfg.camera.rate_hz = 10.0;
+  // Camera looking down, image "up" towards the bow: x_c = -y_b (starboard), y_c = -x_b, z_c = -z_b.
+  Eigen::Matrix3d R_b_c_nominal;
+  R_b_c_nominal << 0, -1, 0, -1, 0, 0, 0, 0, -1;
+  cfg.camera.T_b_c = makeTransform(R_b_c_nominal * smallRotation(rig, 2.0 * kDeg),
+                                   jitter(rig, Eigen::Vector3d(0.25, 0.0, -0.08), Eigen::Vector3d(0.03, 0.03, 0.02)));
+
+  cfg.imu.rate_hz = setup.imu.rate_hz;
+  cfg.imu.gyro_noise_density = setup.imu.gyro_noise_density;
+  cfg.imu.gyro_random_walk = setup.imu.gyro_random_walk;
+  cfg.imu.accel_noise_density = setup.imu.accel_noise_density;
+  cfg.imu.accel_random_walk = setup.imu.accel_random_walk;
+  cfg.imu.gravity = setup.imu.gravity;
+
+  // Sonar beam (+z_s) pointing down: R = Rx(pi) with a small tilt.
+  const Eigen::Matrix3d R_b_s_nominal = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  cfg.sonar.T_b_s = makeTransform(R_b_s_nominal * smallRotation(rig, 2.0 * kDeg),
+                                  jitter(rig, Eigen::Vector3d(0.10, 0.08, -0.12), Eigen::Vector3d(0.03, 0.03, 0.02)));
+  cfg.sonar.rate_hz = setup.sonar.rate_hz;
+  cfg.sonar.range_noise_std = setup.sonar.range_noise_std;
+  cfg.sonar.min_range = setup.sonar.min_range;
+  cfg.sonar.max_range = setup.sonar.max_range;
+
+  cfg.magnetometer.T_b_m =
+      makeTransform(smallRotation(rig, 1.0 * kDeg), jitter(rig, Eigen::Vector3d(-0.35, 0.0, 0.05), Eigen::Vector3d(0.05, 0.05, 0.03)));
+  cfg.magnetometer.rate_hz = setup.magnetometer.rate_hz;
+  cfg.magnetometer.noise_std = setup.magnetometer.noise_std;
+
+  // --- The site.
+  const SiteModel site = makeSite(options.scenario, options.worldSeed());
+  cfg.magnetometer.coil_frequency_hz = site.coil.frequency;
+  cfg.magnetometer.declination_deg = site.geomagnetic.declination_deg;
+
+  // --- The truth.
+  SimTruth& truth = setup.truth;
+  truth.scenario = scenarioName(options.scenario);
+  truth.name = options.sequenceName();
+  truth.trajectory_seed = options.seed;
+  truth.world_seed = options.worldSeed();
+  truth.start_time = options.start_time;
+  truth.duration = options.duration;
+  truth.static_start = options.static_start;
+  truth.travel = setup.trajectory.designedTravel();
+  truth.camera_time_delay = options.camera_delay;
+  truth.coil = site.coil;
+  Rng phase_rng(deriveSeed(options.seed, kStreamCoilPhase));
+  truth.coil.phase = phase_rng.uniform(0.0, 2.0 * M_PI);  // the coil runs freely: its phase differs per dive
+  truth.geomagnetic = site.geomagnetic;
+  Rng bias_rng(deriveSeed(options.seed, kStreamImuBias));
+  for (int i = 0; i < 3; ++i) truth.gyro_bias[i] = bias_rng.gaussian(setup.imu.gyro_initial_bias_std);
+  for (int i = 0; i < 3; ++i) truth.accel_bias[i] = bias_rng.gaussian(setup.imu.accel_initial_bias_std);
+  truth.dropouts = options.spans;
+  return setup;
+}
+
+}  // namespace sim
+}  // namespace vims

@@ -1,0 +1,184 @@
+#include "vims_sim/sim_truth.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "vims_common/config_reader.h"
+
+namespace vims {
+namespace sim {
+namespace {
+
+/// Shortest decimal that reads back as exactly the same double.
+std::string num(double v) {
+  char buf[64];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+std::string vec(const Eigen::Vector3d& v) { return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]"; }
+
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+std::string spans(const std::vector<TimeSpan>& s) {
+  std::string out = "[";
+  for (size_t i = 0; i < s.size(); ++i) out += (i ? ", [" : "[") + num(s[i].begin) + ", " + num(s[i].end) + "]";
+  return out + "]";
+}
+
+Eigen::Vector3d readVec3(const ConfigReader& reader, const std::string& key) {
+  const auto v = reader.getVector(key, 3);
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+std::vector<TimeSpan> readSpans(const ConfigReader& reader, const std::string& key) {
+  std::vector<TimeSpan> out;
+  if (!reader.has(key)) return out;
+  const YAML::Node node = reader.node()[key];
+  if (!node.IsSequence()) throw reader.error(key, "expected a list of [begin, end] pairs");
+  for (const auto& item : node) {
+    if (!item.IsSequence() || item.size() != 2) throw reader.error(key, "expected a list of [begin, end] pairs");
+    TimeSpan span;
+    try {
+      span.begin = item[0].as<double>();
+      span.end = item[1].as<double>();
+    } catch (const YAML::Exception&) {
+      throw reader.error(key, "span bounds must be numbers");
+    }
+    if (!(span.end > span.begin)) throw reader.error(key, "span end must be greater than its begin");
+    out.push_back(span);
+  }
+  return out;
+}
+
+}  // namespace
+
+bool anySpanContains(const std::vector<TimeSpan>& spans, double t) {
+  for (const auto& s : spans)
+    if (s.contains(t)) return true;
+  return false;
+}
+
+std::string SimTruth::toYaml() const {
+  std::ostringstream os;
+  os << "# Simulation truth (evaluation only: the estimator never reads it).\n"
+     << "# Times are seconds; 'dropouts' spans are [begin, end) from start_time.\n"
+     << "generator: " << generator << "\n"
+     << "scenario: " << scenario << "\n"
+     << "name: " << quoted(name) << "\n"
+     << "trajectory_seed: " << trajectory_seed << "\n"
+     << "world_seed: " << world_seed << "\n"
+     << "start_time: " << num(start_time) << "\n"
+     << "duration: " << num(duration) << "\n"
+     << "static_start: " << num(static_start) << "\n"
+     << "travel_m: " << num(travel) << "\n"
+     << "camera_time_delay: " << num(camera_time_delay) << "  # image stamp = exposure time + delay\n"
+     << "coil:  # current I(t) = current_a * sin(2 pi frequency_hz (t - start_time) + phase_rad)\n"
+     << "  position_enu: " << vec(coil.position_w) << "  # [m] world ENU, coil centre\n"
+     << "  moment_enu: " << vec(coil.peakMoment()) << "  # [A m^2] peak, = turns * current_a * pi d^2 / 4\n"
+     << "  turns: " << coil.turns << "\n"
+     << "  current_a: " << num(coil.current) << "  # peak\n"
+     << "  diameter_m: " << num(coil.diameter) << "\n"
+     << "  frequency_hz: " << num(coil.frequency) << "\n"
+     << "  phase_rad: " << num(coil.phase) << "\n"
+     << "geomagnetic:\n"
+     << "  field_enu: " << vec(geomagnetic.fieldEnu()) << "  # [T]\n"
+     << "  total_t: " << num(geomagnetic.total) << "\n"
+     << "  inclination_deg: " << num(geomagnetic.inclination_deg) << "  # positive: pointing down\n"
+     << "  declination_deg: " << num(geomagnetic.declination_deg) << "  # east positive\n"
+     << "imu_initial_bias:\n"
+     << "  gyro: " << vec(gyro_bias) << "  # [rad/s]\n"
+     << "  accel: " << vec(accel_bias) << "  # [m/s^2]\n"
+     << "dropouts:\n"
+     << "  camera_blackout: " << spans(dropouts.camera_blackout) << "\n"
+     << "  camera_off: " << spans(dropouts.camera_off) << "\n"
+     << "  sonar_off: " << spans(dropouts.sonar_off) << "\n"
+     << "  mag_off: " << spans(dropouts.mag_off) << "\n"
+     << "  imu_gap: " << spans(dropouts.imu_gap) << "\n";
+  return os.str();
+}
+
+void SimTruth::save(const std::string& path) const {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write simulation truth '" + path + "'");
+  out << toYaml();
+  if (!out) throw std::runtime_error("failed while writing '" + path + "'");
+}
+
+SimTruth SimTruth::load(const std::string& path) {
+  const ConfigReader root = ConfigReader::fromFile(path);
+  root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
+                          "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
+                          "dropouts"});
+  SimTruth t;
+  t.generator = root.get<std::string>("generator");
+  t.scenario = root.get<std::string>("scenario");
+  if (t.scenario != "tank" && t.scenario != "field") throw root.error("scenario", "expected 'tank' or 'field'");
+  t.name = root.get<std::string>("name");
+  t.trajectory_seed = root.get<uint64_t>("trajectory_seed");
+  t.world_seed = root.get<uint64_t>("world_seed");
+  t.start_time = root.get<double>("start_time");
+  t.duration = root.get<double>("duration");
+  requirePositive(root, "duration", t.duration);
+  t.static_start = root.get<double>("static_start");
+  requireNonNegative(root, "static_start", t.static_start);
+  t.travel = root.get<double>("travel_m");
+  t.camera_time_delay = root.get<double>("camera_time_delay");
+
+  const ConfigReader coil = root.child("coil");
+  coil.rejectUnknownKeys({"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad"});
+  t.coil.position_w = readVec3(coil, "position_enu");
+  t.coil.turns = coil.get<int>("turns");
+  if (t.coil.turns <= 0) throw coil.error("turns", "must be > 0");
+  t.coil.current = coil.get<double>("current_a");
+  t.coil.diameter = coil.get<double>("diameter_m");
+  requirePositive(coil, "diameter_m", t.coil.diameter);
+  t.coil.frequency = coil.get<double>("frequency_hz");
+  requirePositive(coil, "frequency_hz", t.coil.frequency);
+  t.coil.phase = coil.get<double>("phase_rad");
+  if ((readVec3(coil, "moment_enu") - t.coil.peakMoment()).norm() > 1e-9 * (1.0 + t.coil.peakMoment().norm())) {
+    throw coil.error("moment_enu", "inconsistent with turns, current_a and diameter_m");
+  }
+
+  const ConfigReader geo = root.child("geomagnetic");
+  geo.rejectUnknownKeys({"field_enu", "total_t", "inclination_deg", "declination_deg"});
+  t.geomagnetic.total = geo.get<double>("total_t");
+  requirePositive(geo, "total_t", t.geomagnetic.total);
+  t.geomagnetic.inclination_deg = geo.get<double>("inclination_deg");
+  requireInRange(geo, "inclination_deg", t.geomagnetic.inclination_deg, -90.0, 90.0);
+  t.geomagnetic.declination_deg = geo.get<double>("declination_deg");
+  requireInRange(geo, "declination_deg", t.geomagnetic.declination_deg, -180.0, 180.0);
+  if ((readVec3(geo, "field_enu") - t.geomagnetic.fieldEnu()).norm() > 1e-12) {
+    throw geo.error("field_enu", "inconsistent with total_t, inclination_deg and declination_deg");
+  }
+
+  const ConfigReader bias = root.child("imu_initial_bias");
+  bias.rejectUnknownKeys({"gyro", "accel"});
+  t.gyro_bias = readVec3(bias, "gyro");
+  t.accel_bias = readVec3(bias, "accel");
+
+  const ConfigReader drops = root.child("dropouts");
+  drops.rejectUnknownKeys({"camera_blackout", "camera_off", "sonar_off", "mag_off", "imu_gap"});
+  t.dropouts.camera_blackout = readSpans(drops, "camera_blackout");
+  t.dropouts.camera_off = readSpans(drops, "camera_off");
+  t.dropouts.sonar_off = readSpans(drops, "sonar_off");
+  t.dropouts.mag_off = readSpans(drops, "mag_off");
+  t.dropouts.imu_gap = readSpans(drops, "imu_gap");
+  return t;
+}
+
+}  // namespace sim
+}  // namespace vims

@@ -1,0 +1,139 @@
+// The coil dipole against analytic on-axis/equatorial values and a Biot-Savart integration of
+// a current loop; the geomagnetic field; the magnetometer frame handling.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "vims_sim/magnetic_field.h"
+#include "vims_sim/sensor_models.h"
+
+using namespace vims::sim;
+
+namespace {
+
+/// Field of a circular loop (centre c, axis +z, radius a, total ampere-turns NI) at p by
+/// numerical Biot-Savart: dB = mu0 NI / (4 pi) dl x r / |r|^3.
+Eigen::Vector3d biotSavartLoop(const Eigen::Vector3d& c, double a, double ampere_turns, const Eigen::Vector3d& p,
+                               int segments = 20000) {
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int i = 0; i < segments; ++i) {
+    const double phi0 = 2.0 * M_PI * i / segments, phi1 = 2.0 * M_PI * (i + 1) / segments;
+    const Eigen::Vector3d q0 = c + a * Eigen::Vector3d(std::cos(phi0), std::sin(phi0), 0.0);
+    const Eigen::Vector3d q1 = c + a * Eigen::Vector3d(std::cos(phi1), std::sin(phi1), 0.0);
+    const Eigen::Vector3d dl = q1 - q0;
+    const Eigen::Vector3d r = p - 0.5 * (q0 + q1);
+    b += dl.cross(r) / std::pow(r.norm(), 3);
+  }
+  return kMu0 * ampere_turns / (4.0 * M_PI) * b;
+}
+
+CoilDipole referenceCoil() {
+  CoilDipole coil;
+  coil.position_w = Eigen::Vector3d(1.5, -2.0, 0.0);
+  coil.turns = 330;
+  coil.current = 2.9;
+  coil.diameter = 0.6;
+  coil.frequency = 11.0;
+  coil.phase = 0.4;
+  return coil;
+}
+
+}  // namespace
+
+TEST(CoilDipole, MomentOfTheReferenceCoil) {
+  const CoilDipole coil = referenceCoil();
+  // 330 turns * 2.9 A * pi * 0.3^2 m^2 = 270.6 A m^2, vertical.
+  EXPECT_NEAR(coil.peakMoment().z(), 330 * 2.9 * M_PI * 0.09, 1e-9);
+  EXPECT_EQ(coil.peakMoment().head<2>().norm(), 0.0);
+}
+
+TEST(CoilDipole, OnAxisAndEquatorialValues) {
+  const CoilDipole coil = referenceCoil();
+  const double m = coil.peakMoment().z();
+  for (double r : {2.0, 3.0, 5.0}) {
+    // On the axis above the coil: B = mu0 m / (2 pi r^3), along +z.
+    const Eigen::Vector3d on_axis = coil.peakField(coil.position_w + Eigen::Vector3d(0, 0, r));
+    EXPECT_NEAR(on_axis.z(), kMu0 * m / (2.0 * M_PI * r * r * r), 1e-18);
+    EXPECT_NEAR(on_axis.head<2>().norm(), 0.0, 1e-20);
+    // In the coil plane: B = -mu0 m / (4 pi r^3), along -z.
+    const Eigen::Vector3d equator = coil.peakField(coil.position_w + Eigen::Vector3d(r * 0.6, r * 0.8, 0));
+    EXPECT_NEAR(equator.z(), -kMu0 * m / (4.0 * M_PI * r * r * r), 1e-18);
+    EXPECT_NEAR(equator.head<2>().norm(), 0.0, 1e-20);
+  }
+  // 3 m above the coil the peak field is about 2 uT: well above the 5 nT sensor noise.
+  EXPECT_NEAR(coil.peakField(coil.position_w + Eigen::Vector3d(0, 0, 3)).z(), 2.0e-6, 0.01e-6);
+}
+
+TEST(CoilDipole, MatchesBiotSavartOfASmallLoop) {
+  // A small loop is a pure dipole: the analytic formula must match to the discretisation error.
+  CoilDipole coil = referenceCoil();
+  coil.diameter = 0.02;
+  const double ampere_turns = coil.turns * coil.current;
+  for (const Eigen::Vector3d& offset : {Eigen::Vector3d(0.3, 0.1, 0.5), Eigen::Vector3d(-0.7, 0.4, 0.2),
+                                        Eigen::Vector3d(0.2, -0.9, -0.4), Eigen::Vector3d(1.0, 0.0, 0.0)}) {
+    const Eigen::Vector3d p = coil.position_w + offset;
+    const Eigen::Vector3d reference = biotSavartLoop(coil.position_w, 0.5 * coil.diameter, ampere_turns, p);
+    EXPECT_LT((coil.peakField(p) - reference).norm(), 1e-3 * reference.norm()) << offset.transpose();
+  }
+}
+
+TEST(CoilDipole, RealCoilIsADipoleAtSurveyDistances) {
+  // The 0.6 m coil seen from 2-5 m: the dipole's relative error is of order (a / r)^2.
+  const CoilDipole coil = referenceCoil();
+  const double a = 0.5 * coil.diameter;
+  for (const Eigen::Vector3d& offset : {Eigen::Vector3d(0, 0, 2.0), Eigen::Vector3d(1.5, 1.0, 3.0),
+                                        Eigen::Vector3d(-3.0, 2.0, 2.5), Eigen::Vector3d(4.0, 0.0, 2.0)}) {
+    const Eigen::Vector3d p = coil.position_w + offset;
+    const Eigen::Vector3d reference = biotSavartLoop(coil.position_w, a, coil.turns * coil.current, p);
+    const double r = offset.norm();
+    EXPECT_LT((coil.peakField(p) - reference).norm(), 3.0 * (a / r) * (a / r) * reference.norm()) << offset.transpose();
+  }
+}
+
+TEST(CoilDipole, InstantaneousFieldIsThePeakTimesTheWaveform) {
+  const CoilDipole coil = referenceCoil();
+  const Eigen::Vector3d p(0.0, 0.0, 3.0);
+  for (double t : {0.0, 0.01, 0.0227, 1.5}) {
+    const double w = std::sin(2.0 * M_PI * 11.0 * t + 0.4);
+    EXPECT_LT((coil.field(p, t) - w * coil.peakField(p)).norm(), 1e-20);
+  }
+}
+
+TEST(GeomagneticField, EnuComponentsFromIntensityInclinationDeclination) {
+  GeomagneticField geo;
+  geo.total = 49e-6;
+  geo.inclination_deg = 46.0;
+  geo.declination_deg = 0.0;
+  Eigen::Vector3d b = geo.fieldEnu();
+  EXPECT_NEAR(b.norm(), 49e-6, 1e-15);
+  EXPECT_NEAR(b.x(), 0.0, 1e-15);
+  EXPECT_NEAR(b.y(), 49e-6 * std::cos(46.0 * M_PI / 180), 1e-15);
+  EXPECT_NEAR(b.z(), -49e-6 * std::sin(46.0 * M_PI / 180), 1e-15);  // pointing down
+  geo.declination_deg = 4.0;  // magnetic north 4 deg east of true north
+  b = geo.fieldEnu();
+  EXPECT_NEAR(std::atan2(b.x(), b.y()) * 180 / M_PI, 4.0, 1e-9);
+  EXPECT_NEAR(std::atan2(-b.z(), b.head<2>().norm()) * 180 / M_PI, 46.0, 1e-9);
+}
+
+TEST(Magnetometer, MeasuresTheFieldInItsOwnFrame) {
+  GeomagneticField geo;
+  geo.declination_deg = 3.0;
+  const CoilDipole coil = referenceCoil();
+  Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+  T_w_b.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.1, 0.2, 1.0).normalized()).toRotationMatrix();
+  T_w_b.translation() = Eigen::Vector3d(0.5, -1.0, 3.0);
+  Eigen::Isometry3d T_b_m = Eigen::Isometry3d::Identity();
+  T_b_m.linear() = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  T_b_m.translation() = Eigen::Vector3d(-0.35, 0.0, 0.05);
+  const double t = 0.0123;
+  const Eigen::Isometry3d T_w_m = T_w_b * T_b_m;
+  const Eigen::Vector3d expected = T_w_m.linear().transpose() * (geo.fieldEnu() + coil.field(T_w_m.translation(), t));
+  EXPECT_LT((MagnetometerSimulator::trueField(T_w_b, T_b_m, geo.fieldEnu(), coil, t) - expected).norm(), 1e-18);
+  // Noise: 5 nT per axis and sample.
+  MagnetometerParams params;
+  MagnetometerSimulator mag(params, T_b_m, geo, coil, 42);
+  double sum2 = 0.0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) sum2 += (mag.measure(T_w_b, t) - expected).squaredNorm();
+  EXPECT_NEAR(std::sqrt(sum2 / (3.0 * n)), 5e-9, 0.1e-9);
+}

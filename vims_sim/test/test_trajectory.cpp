@@ -1,0 +1,241 @@
+// The trajectory model: B-spline basis, analytic derivative consistency, IMU integration back
+// to the ground truth, the static start, the motion envelope and the revisit structure.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "vims_sim/bspline.h"
+#include "vims_sim/sensor_models.h"
+#include "vims_sim/trajectory.h"
+
+using namespace vims::sim;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+Trajectory makeTrajectory(Scenario scenario, double duration, uint64_t seed, double static_start = 3.0) {
+  TrajectoryParams p;
+  p.scenario = scenario;
+  p.duration = duration;
+  p.seed = seed;
+  p.static_start = static_start;
+  return Trajectory::design(p);
+}
+
+Eigen::Vector3d rotationLog(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+Eigen::Matrix3d rotationExp(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  if (angle < 1e-15) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+}
+
+double headingOf(const TrajectoryState& s) { return std::atan2(s.v_w_b.y(), s.v_w_b.x()); }
+
+}  // namespace
+
+TEST(BSpline, BlendingMatrixMatchesTheKnownCubicAndSumsToOne) {
+  const Eigen::MatrixXd cubic = UniformBSpline<1>::blendingMatrix(3);
+  Eigen::MatrixXd expected(4, 4);
+  expected << 1, -3, 3, -1, 4, 0, -6, 3, 1, 3, 3, -3, 0, 0, 0, 1;
+  EXPECT_LT((cubic - expected / 6.0).norm(), 1e-12);
+  for (int degree = 1; degree <= 6; ++degree) {
+    const Eigen::MatrixXd m = UniformBSpline<1>::blendingMatrix(degree);
+    // Partition of unity: the weights sum to 1 for every u (constant term 1, others 0).
+    const Eigen::VectorXd column_sums = m.colwise().sum();
+    EXPECT_NEAR(column_sums(0), 1.0, 1e-12) << "degree " << degree;
+    for (int n = 1; n <= degree; ++n) EXPECT_NEAR(column_sums(n), 0.0, 1e-12) << "degree " << degree;
+  }
+}
+
+TEST(BSpline, ReproducesAPolynomialOfItsDegreeAndItsDerivatives) {
+  // A uniform quintic B-spline whose control points sample a quadratic at the centred times
+  // reproduces a quadratic (exactly up to a constant shift), so its 2nd derivative is exact.
+  std::vector<Eigen::Matrix<double, 1, 1>> control;
+  const double dt = 0.5;
+  for (int j = 0; j < 20; ++j) {
+    const double tau = (j - 2) * dt;
+    control.push_back(Eigen::Matrix<double, 1, 1>(3.0 * tau * tau - tau));
+  }
+  UniformBSpline<1> spline(5, 0.0, dt, control);
+  Eigen::Matrix<double, 1, 1> out[3];
+  for (double t = 0.1; t < 6.0; t += 0.37) {
+    spline.evaluate(t, 2, out);
+    EXPECT_NEAR(out[1](0), 6.0 * t - 1.0, 1e-9);
+    EXPECT_NEAR(out[2](0), 6.0, 1e-9);
+  }
+}
+
+TEST(Trajectory, AnalyticDerivativesMatchFiniteDifferences) {
+  for (Scenario scenario : {Scenario::kTank, Scenario::kField}) {
+    const Trajectory traj = makeTrajectory(scenario, 750.0, 11);
+    const double h = 1e-3;
+    double worst_v = 0, worst_a = 0, worst_w = 0;
+    for (double t = 0.5; t < 749.0; t += 3.7) {
+      const TrajectoryState s = traj.sample(t), sm = traj.sample(t - h), sp = traj.sample(t + h);
+      worst_v = std::max(worst_v, (s.v_w_b - (sp.p_w_b - sm.p_w_b) / (2 * h)).norm());
+      worst_a = std::max(worst_a, (s.a_w_b - (sp.v_w_b - sm.v_w_b) / (2 * h)).norm());
+      // omega_b from the finite difference of the orientation: R(t-h)^T R(t+h) = Exp(2 h omega_b).
+      const Eigen::Vector3d w_fd =
+          rotationLog(sm.q_w_b.toRotationMatrix().transpose() * sp.q_w_b.toRotationMatrix()) / (2 * h);
+      worst_w = std::max(worst_w, (s.omega_b - w_fd).norm());
+      // pose() agrees with sample().
+      const Eigen::Isometry3d T = traj.pose(t);
+      ASSERT_LT((T.translation() - s.p_w_b).norm(), 1e-12);
+      ASSERT_LT((T.linear() - s.q_w_b.toRotationMatrix()).norm(), 1e-12);
+    }
+    EXPECT_LT(worst_v, 1e-7) << scenarioName(scenario);
+    EXPECT_LT(worst_a, 1e-7) << scenarioName(scenario);
+    EXPECT_LT(worst_w, 1e-7) << scenarioName(scenario);
+  }
+}
+
+// Midpoint (trapezoidal) integration of noiseless 200 Hz IMU samples from the true state.
+double imuIntegrationDrift(const Trajectory& traj, double t_begin, double t_end, double* rotation_error) {
+  const double g = 9.81, dt = 1.0 / 200.0;
+  const Eigen::Vector3d g_w(0, 0, -g);
+  TrajectoryState s = traj.sample(t_begin);
+  Eigen::Matrix3d R = s.q_w_b.toRotationMatrix();
+  Eigen::Vector3d v = s.v_w_b, p = s.p_w_b;
+  Eigen::Vector3d f = ImuSimulator::idealSpecificForce(s, g), w = s.omega_b;
+  double worst = 0.0;
+  const int steps = static_cast<int>(std::lround((t_end - t_begin) / dt));
+  for (int k = 1; k <= steps; ++k) {
+    const TrajectoryState s1 = traj.sample(t_begin + k * dt);
+    const Eigen::Vector3d f1 = ImuSimulator::idealSpecificForce(s1, g), w1 = s1.omega_b;
+    const Eigen::Matrix3d R1 = R * rotationExp(0.5 * (w + w1) * dt);
+    const Eigen::Vector3d a0 = R * f + g_w, a1 = R1 * f1 + g_w;
+    const Eigen::Vector3d v1 = v + 0.5 * (a0 + a1) * dt;
+    p += 0.5 * (v + v1) * dt;
+    v = v1;
+    R = R1;
+    f = f1;
+    w = w1;
+    worst = std::max(worst, (p - s1.p_w_b).norm());
+    *rotation_error = rotationLog(R.transpose() * s1.q_w_b.toRotationMatrix()).norm();
+  }
+  return worst;
+}
+
+TEST(Trajectory, NoiselessImuIntegratesBackToTheTrajectory) {
+  const Trajectory tank = makeTrajectory(Scenario::kTank, 750.0, 3);
+  double rotation_error = 0.0;
+  EXPECT_LT(imuIntegrationDrift(tank, 0.0, 60.0, &rotation_error), 0.01);  // static start + acceleration
+  EXPECT_LT(rotation_error, 1e-5);
+  EXPECT_LT(imuIntegrationDrift(tank, 300.0, 360.0, &rotation_error), 0.01);  // turns and climbs
+  EXPECT_LT(rotation_error, 1e-5);
+  const Trajectory field = makeTrajectory(Scenario::kField, 600.0, 4);
+  EXPECT_LT(imuIntegrationDrift(field, 200.0, 260.0, &rotation_error), 0.01);
+  EXPECT_LT(rotation_error, 1e-5);
+}
+
+TEST(Trajectory, StaticStartIsExactlyAtRestThenMoves) {
+  const Trajectory traj = makeTrajectory(Scenario::kTank, 60.0, 5, 4.0);
+  const TrajectoryState s0 = traj.sample(0.0);
+  for (double t = -2.0; t <= 4.0; t += 0.005) {
+    const TrajectoryState s = traj.sample(t);
+    ASSERT_EQ(s.v_w_b.norm(), 0.0) << t;
+    ASSERT_EQ(s.a_w_b.norm(), 0.0) << t;
+    ASSERT_EQ(s.omega_b.norm(), 0.0) << t;
+    ASSERT_EQ((s.p_w_b - s0.p_w_b).norm(), 0.0) << t;
+    // At rest the accelerometer reads +g along the world up axis.
+    const Eigen::Vector3d f_w = s.q_w_b * ImuSimulator::idealSpecificForce(s, 9.81);
+    ASSERT_LT((f_w - Eigen::Vector3d(0, 0, 9.81)).norm(), 1e-12);
+  }
+  EXPECT_GT(traj.sample(4.5).v_w_b.norm(), 0.0);
+  EXPECT_GT(traj.sample(20.0).v_w_b.norm(), 0.05);
+}
+
+TEST(Trajectory, ShortSequenceIsTheStartOfTheLongOne) {
+  const Trajectory short_traj = makeTrajectory(Scenario::kTank, 60.0, 9);
+  const Trajectory long_traj = makeTrajectory(Scenario::kTank, 750.0, 9);
+  for (double t = 0.0; t < 60.0; t += 0.25) {
+    const TrajectoryState a = short_traj.sample(t), b = long_traj.sample(t);
+    ASSERT_LT((a.p_w_b - b.p_w_b).norm(), 1e-9) << t;
+    ASSERT_LT(a.q_w_b.angularDistance(b.q_w_b), 1e-9) << t;
+  }
+  const Trajectory other = makeTrajectory(Scenario::kTank, 60.0, 10);
+  EXPECT_GT((other.sample(59.0).p_w_b - short_traj.sample(59.0).p_w_b).norm(), 0.05);
+}
+
+struct Envelope {
+  double max_speed = 0, accel_p95 = 0, min_alt = 1e9, max_alt = -1e9, max_tilt = 0, travel = 0;
+  Eigen::Vector2d min_xy{1e9, 1e9}, max_xy{-1e9, -1e9};
+};
+
+Envelope envelopeOf(const Trajectory& traj, double duration) {
+  Envelope e;
+  std::vector<double> accel;
+  Eigen::Vector3d previous = traj.sample(0.0).p_w_b;
+  for (double t = 0.0; t < duration; t += 0.1) {
+    const TrajectoryState s = traj.sample(t);
+    e.max_speed = std::max(e.max_speed, s.v_w_b.norm());
+    accel.push_back(s.a_w_b.norm());
+    e.min_alt = std::min(e.min_alt, s.p_w_b.z());
+    e.max_alt = std::max(e.max_alt, s.p_w_b.z());
+    const Eigen::Vector3d up_b = s.q_w_b.conjugate() * Eigen::Vector3d::UnitZ();
+    e.max_tilt = std::max(e.max_tilt, std::acos(std::min(1.0, up_b.z())));
+    e.travel += (s.p_w_b - previous).head<2>().norm();
+    previous = s.p_w_b;
+    e.min_xy = e.min_xy.cwiseMin(s.p_w_b.head<2>());
+    e.max_xy = e.max_xy.cwiseMax(s.p_w_b.head<2>());
+  }
+  std::sort(accel.begin(), accel.end());
+  e.accel_p95 = accel[accel.size() * 95 / 100];
+  return e;
+}
+
+TEST(Trajectory, TankMotionEnvelopeMatchesTheReferenceTankTest) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const Envelope e = envelopeOf(makeTrajectory(Scenario::kTank, 750.0, seed), 750.0);
+    EXPECT_LE(e.max_speed, 0.40) << seed;
+    EXPECT_GE(e.max_speed, 0.30) << seed;
+    EXPECT_LT(e.accel_p95, 0.05) << seed;
+    EXPECT_GT(e.min_alt, 1.9) << seed;
+    EXPECT_LT(e.max_alt, 5.1) << seed;
+    EXPECT_GT(e.max_alt - e.min_alt, 1.5) << seed;  // the altitude really varies
+    EXPECT_LT(e.max_tilt, 8.0 * kDeg) << seed;       // roll and pitch of a few degrees
+    EXPECT_NEAR(e.travel, 130.0, 10.0) << seed;
+    EXPECT_GT(e.min_xy.minCoeff(), -10.0) << seed;
+    EXPECT_LT(e.max_xy.maxCoeff(), 10.0) << seed;
+  }
+}
+
+TEST(Trajectory, FieldCoversALargerAreaWithLongTransits) {
+  const Envelope e = envelopeOf(makeTrajectory(Scenario::kField, 1500.0, 1), 1500.0);
+  EXPECT_LE(e.max_speed, 0.40);
+  EXPECT_LT(e.accel_p95, 0.05);
+  EXPECT_GT(e.min_alt, 1.9);
+  EXPECT_LT(e.max_alt, 5.1);
+  EXPECT_GT(e.travel, 350.0);
+  EXPECT_GT(e.max_xy.x() - e.min_xy.x(), 60.0);
+  EXPECT_GT(e.max_xy.y() - e.min_xy.y(), 40.0);
+  EXPECT_LT(e.max_xy.maxCoeff(), 40.0);
+  EXPECT_GT(e.min_xy.minCoeff(), -40.0);
+}
+
+TEST(Trajectory, TankRevisitsPlacesCrossingAndInOppositeDirection) {
+  const Trajectory traj = makeTrajectory(Scenario::kTank, 750.0, 7);
+  std::vector<TrajectoryState> samples;
+  for (double t = 5.0; t < 750.0; t += 1.0) {
+    const TrajectoryState s = traj.sample(t);
+    if (s.v_w_b.head<2>().norm() > 0.05) samples.push_back(s);
+  }
+  int crossings = 0, opposite = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    for (size_t j = i + 1; j < samples.size(); ++j) {
+      if (samples[j].t - samples[i].t < 60.0) continue;
+      if ((samples[i].p_w_b - samples[j].p_w_b).head<2>().norm() > 1.0) continue;
+      double dh = std::abs(std::remainder(headingOf(samples[i]) - headingOf(samples[j]), 2.0 * M_PI));
+      if (dh > 70 * kDeg && dh < 110 * kDeg) ++crossings;
+      if (dh > 160 * kDeg) ++opposite;
+    }
+  }
+  EXPECT_GE(crossings, 5);
+  EXPECT_GE(opposite, 3);
+}
