@@ -5,7 +5,7 @@
 set -eo pipefail
 cd "$(dirname "$0")/.."
 SCENARIO=tank
-DURATION=120
+DURATION=300
 SEED=1
 OUT=out/main
 while [ $# -gt 0 ]; do
@@ -31,5 +31,8 @@ echo "== simulating $SCENARIO, ${DURATION} s, seed $SEED -> $SEQ"
 "$BIN/vims_sim" --scenario "$SCENARIO" --duration "$DURATION" --seed "$SEED" --out "$SEQ"
 echo "== running VIMS offline -> $RESULT"
 "$BIN/vims_offline" --sequence "$SEQ" --out "$RESULT"
-echo "== evaluating"
+echo "== sensor front-ends against the simulator's truth"
+"$BIN/vims_frontend_eval" sonar --sequence "$SEQ"
+"$BIN/vims_frontend_eval" mag --sequence "$SEQ"
+echo "== trajectory and loop accuracy"
 "$BIN/vims_eval" run --sequence "$SEQ" --out "$RESULT"
