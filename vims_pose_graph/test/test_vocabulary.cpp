@@ -488,29 +488,3 @@ TEST(BriefDescriptor, PatternIsDeterministicAndUnoriented) {
 
 }  // namespace
 }  // namespace vims
-
-namespace vims {
-namespace {
-
-TEST(CommittedVocabulary, LoadsAndMatchesItsDocumentation) {
-  // config/vocabulary/orb_k8l4.vocab, trained as docs/vocabulary.md describes.
-  const std::string path = std::string(VIMS_SOURCE_DIR) + "/config/vocabulary/orb_k8l4.vocab";
-  ASSERT_TRUE(fs::exists(path)) << path;
-  EXPECT_LE(fs::file_size(path), 5u * 1024u * 1024u);
-  const BinaryVocabulary voc = BinaryVocabulary::load(path);
-  EXPECT_EQ(voc.branching(), 8);
-  EXPECT_EQ(voc.levels(), 4);
-  EXPECT_EQ(voc.descriptorType(), "orb");
-  EXPECT_GE(voc.numWords(), 4000u);
-  EXPECT_EQ(voc.numTrainingImages(), 600u);
-  // It works on imagery it has never seen: a procedural texture and its 90 deg rotation.
-  FeatureExtractor extractor{FeatureExtractionOptions()};
-  const cv::Mat texture = makeTexture(kTextureSize, 4242);
-  const BowVector a = voc.transform(extractor.extract(viewOf(texture, 0, {}, kViewSize, 1)).descriptors);
-  const BowVector b = voc.transform(extractor.extract(viewOf(texture, 90, {5, 5}, kViewSize, 2)).descriptors);
-  const BowVector c = voc.transform(extractor.extract(viewOf(makeTexture(kTextureSize, 4343), 0, {}, kViewSize, 3)).descriptors);
-  EXPECT_GT(bowScoreL1(a, b), 2.0 * bowScoreL1(a, c));
-}
-
-}  // namespace
-}  // namespace vims
