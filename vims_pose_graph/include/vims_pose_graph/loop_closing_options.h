@@ -1,0 +1,246 @@
+#pragma once
+/// @file loop_closing_options.h
+/// @brief Typed options of the multi-scale map, the hierarchical loop closer and the pose-graph
+/// manager (docs/pose_graph.md, "Loop closing"), and the ablation modes of the paper.
+///
+/// Every threshold of every stage is here with the reason for its default. All structs have
+/// `fromReader` (rejects unknown keys, range-checks every value, ConfigError names the key),
+/// `validate` (for options built in code) and `toYaml`.
+
+#include <string>
+
+#include "vims_common/config_reader.h"
+#include "vims_pose_graph/feature_extraction.h"
+#include "vims_pose_graph/pose_graph.h"
+
+namespace vims {
+
+/// The paper's ablation modes, all on the same code path.
+enum class LoopClosingMode {
+  kFull,     ///< magnetic + BoW + ORB verification, geomagnetic yaw factors
+  kViSlam,   ///< baseline: BRIEF, BoW over all past submaps, every candidate above threshold verified, no magnetism
+  kNoAlter,  ///< no magnetic (alternating field) stage: BoW over all past submaps
+  kNoOrb,    ///< BRIEF instead of ORB everywhere (visual submaps and tracked points)
+  kNoGeom,   ///< no geomagnetic yaw factors
+};
+/// "full" / "vi_slam" / "no_alter" / "no_orb" / "no_geom".
+std::string toString(LoopClosingMode mode);
+/// Throws std::invalid_argument naming the value for anything else.
+LoopClosingMode loopClosingModeFromString(const std::string& name);
+
+/// What a mode switches on. Derived from the mode only (never configured separately), so a mode
+/// name in a results table means exactly one set of stages.
+struct ModeSettings {
+  DescriptorType descriptor = DescriptorType::kOrb;  ///< visual submaps and tracked points
+  bool magnetic_stage = true;             ///< magnetic place recognition restricts the BoW search
+  bool verify_all_bow_candidates = false; ///< every BoW candidate above threshold is verified (vi_slam)
+  bool geomagnetic_yaw = true;            ///< geomagnetic yaw factors in the pose graph
+
+  static ModeSettings forMode(LoopClosingMode mode);
+};
+
+/// Grouping of magnetic signatures into magnetic submaps (paper, "Magnetic Submaps").
+struct MagneticSubmapOptions {
+  /// A submap's radius is where its signature varies by less than this fraction of its own
+  /// magnitude: |s - s_submap| <= max_relative_variation * |s_submap|. At the extractor's
+  /// min_snr (100) noise moves an amplitude by ~7 %, so 0.25 is over three times the noise (noise
+  /// alone does not cut submaps); a dipole field (~r^-3) changes by 25 % over ~8 % of the range
+  /// to the coil: submaps span ~0.25 m of track at 3 m from the coil and ~1 m at 12 m.
+  double max_relative_variation = 0.25;
+  /// Signatures weaker than this [T] are not mapped: a relative variation of a near-zero vector
+  /// is meaningless. 3 nT is well above the amplitude noise of a 2 s window (~0.2 nT at 5 nT per
+  /// 1 kHz sample) and below the coil field at ~15 m.
+  double min_amplitude_tesla = 3.0e-9;
+  /// Members needed for a submap. 1: close to the coil the field changes so fast that a group
+  /// may hold a single window, and dropping it would leave exactly the most distinctive places
+  /// without a magnetic submap (their keyframes would be unreachable by the magnetic stage).
+  int min_members = 1;
+  /// A submap is closed after this many members (40 s at 0.4 s hops), so a hovering vehicle
+  /// still produces submaps and the grouping cost stays bounded.
+  int max_members = 100;
+  /// A time gap between consecutive valid signatures larger than this [s] closes the submap
+  /// (invalid windows, magnetometer dropout): 2.5 hops.
+  double max_time_gap_s = 1.0;
+  /// The sparse representation is the mean of the members within this many places of the
+  /// median member (2 -> 5 windows, 1.6 s of overlapping windows) -- the "smoothed value at the
+  /// median point".
+  int smoothing_half_window = 2;
+  /// Radius bounds [m]. The minimum covers the keyframes next to the tied one when the vehicle
+  /// hovers; the maximum keeps a submap far from the coil (field nearly constant) from clustering
+  /// the whole map, where the magnetic stage cannot discriminate anyway.
+  double min_radius_m = 0.3;
+  double max_radius_m = 5.0;
+  /// Visual submaps up to radius + margin (horizontal distance) are clustered under a magnetic
+  /// submap: a downward camera at 2-3 m altitude sees ~3 x 2 m of seabed, so keyframes within
+  /// about half of that of the submap still view the same place.
+  double cluster_margin_m = 1.0;
+
+  static MagneticSubmapOptions fromReader(const ConfigReader& reader);
+  void validate() const;
+  std::string toYaml() const;
+};
+
+/// Hierarchical place recognition and loop verification (paper, "Hierarchical Place
+/// Recognition" and "Loop Closure Verification").
+struct LoopDetectorOptions {
+  // --- candidates
+  /// Keyframes of the current run this recent are never candidates (the paper excludes
+  /// x < y + 50 submaps; 30 s covers slow hovering with many keyframes). Loaded-map keyframes
+  /// are never recent.
+  int exclude_recent_keyframes = 50;
+  double exclude_recent_s = 30.0;
+
+  // --- magnetic stage
+  /// The query's signature is the valid one nearest in time within this [s] (hop 0.4 s: one is
+  /// always within 0.2 s while the coil is heard). None: the stage is skipped with a warning.
+  double query_signature_max_dt_s = 0.5;
+  /// A magnetic submap i is a candidate when |s_q - s_i| <= relative * |s_i| + floor.
+  /// relative = 2 x max_relative_variation: the query may lie anywhere inside the submap's radius
+  /// and margin (up to the variation threshold from the representative) plus its own noise; the
+  /// floor is the amplitude noise of two windows (tesla).
+  double mag_distance_relative = 0.5;
+  double mag_distance_floor_tesla = 1.0e-9;
+  /// Candidates kept (smallest distance first). Overlapping submaps make several near-equal
+  /// candidates at a revisit; 5 keeps them without letting a weak, ambiguous field open the whole map.
+  int mag_max_candidates = 5;
+
+  // --- bag of words
+  /// Minimum L1 score. Measured with the k8l4 vocabulary on the simulated seabed: overlapping
+  /// views (turned, other altitude) 0.09-0.21, unrelated places 0.03-0.15 -- the seabed looks
+  /// alike everywhere, so BoW ranks candidates rather than decides; 0.04 only drops feature-poor
+  /// or clearly unrelated images, and the geometric stages decide.
+  double bow_min_score = 0.04;
+  /// Candidates verified per query (best score first; the first accepted one wins). vi_slam
+  /// verifies every candidate above the threshold (the paper's enhanced VINS-Mono), capped by
+  /// bow_max_candidates_all to bound the cost of one query.
+  int bow_max_candidates = 3;
+  int bow_max_candidates_all = 50;
+
+  // --- corner replication (tracked 3D points described for 3D-2D matching)
+  /// Harris response (ORB units: 7x7 block, k = 0.04, normalised as cv::ORB does) below which a
+  /// replicated keypoint is dropped. Tracked Shi-Tomasi corners are corners at level 0 but
+  /// often blur into edges or flat patches at coarse levels, where their descriptor is noise.
+  /// On the simulated seabed ORB's keypoints respond 3e-8..2e-6 (10th percentile 6e-8); 1e-8
+  /// drops the flat and edge-like levels and keeps every level where ORB itself could find a corner.
+  double harris_threshold = 1.0e-8;
+  /// Add the keyframe's own tracked corners (replicated like a query's) to its visual submap's
+  /// matching keypoints (not to its BoW vector). Queries are tracked corners; the same detector
+  /// on both sides re-finds the same corners (~40 % more correct matches on the simulated seabed).
+  bool submap_include_tracked_corners = true;
+
+  // --- 3D-2D matching
+  /// Lowe's 2-nearest-neighbour ratio: best < ratio * second best. Lowe's 0.8 is for one
+  /// descriptor per feature; here a point's distance is the minimum over its replicated levels,
+  /// which also pulls the second best down. Measured on simulated seabed revisits (90 deg
+  /// turns included): 0.9 rejects ~60 % of the wrong matches and keeps ~90 % of the correct ones,
+  /// 0.8 rejects ~90 % but also ~20 % of the correct ones and halves the verified revisits;
+  /// PnP and covisibility reject what remains (no wrong place accepted either way).
+  double match_ratio = 0.9;
+  /// Maximum Hamming distance of a match (of 256 bits); ORB-SLAM's loose threshold is 100,
+  /// 80 is stricter because the ratio test alone passes unique but poor matches.
+  int match_max_distance = 80;
+  /// A query descriptor of pyramid level l is compared with candidate keypoints of octave o only
+  /// when |l - o| <= this: the replication covers scale changes between visits, and 2 levels
+  /// (1.2^2 = 1.44) cover altitude changes of +-44 %, while comparing every level with every
+  /// octave only adds chances for a wrong keypoint to look close. -1 compares all levels.
+  int match_max_level_difference = 2;
+  /// ORB detects one corner on several pyramid levels; the second-best neighbour is taken among
+  /// keypoints farther than this [px] from the best one, so those duplicates do not fail the ratio test.
+  double match_duplicate_radius_px = 4.0;
+
+  // --- PnP RANSAC
+  /// Inlier threshold in the candidate image [px]; 3 px covers ORB keypoint quantisation on
+  /// coarse levels and small VIO point errors.
+  double pnp_reprojection_px = 3.0;
+  int pnp_iterations = 200;
+  double pnp_confidence = 0.99;
+  /// Minimum inliers (VINS-Mono's MIN_LOOP_NUM): fewer cannot tell a revisit from an
+  /// accidental small consistent set (a repeated object).
+  int pnp_min_inliers = 25;
+
+  // --- covisibility
+  /// The match's temporal neighbours (same session, up to this many keyframes either side) must
+  /// also see the PnP inliers: each inlier is projected into a neighbour with the neighbour's
+  /// VIO pose relative to the match, and is confirmed by a neighbour keypoint within
+  /// covisibility_search_radius_px whose descriptor is within match_max_distance. 0 disables.
+  int covisibility_neighbours = 2;
+  /// A neighbour confirms when at least this many inliers project into it and at least this
+  /// fraction of those are confirmed; the candidate passes when covisibility_min_neighbours
+  /// neighbours confirm. A wrong PnP pose predicts the neighbours' views wrongly (~0 %),
+  /// a correct one gets 30-70 % (the neighbour keeps only its 500 strongest corners).
+  int covisibility_min_points = 10;
+  double covisibility_min_ratio = 0.25;
+  int covisibility_min_neighbours = 1;
+  /// VIO relative poses between neighbouring keyframes are accurate to a few mm; 8 px covers
+  /// that plus the PnP pose error at a few metres.
+  double covisibility_search_radius_px = 8.0;
+
+  // --- loops.csv
+  /// Also record, per query, the best candidate that failed the magnetic or BoW stage (at most
+  /// one row per query), so precision-recall of the prefilters can be computed from loops.csv.
+  bool record_prefilter_rejections = true;
+
+  static LoopDetectorOptions fromReader(const ConfigReader& reader);
+  void validate() const;
+  std::string toYaml() const;
+};
+
+/// Options of the PoseGraphManager (the key `pose_graph_manager` or a file like
+/// config/pose_graph.yaml).
+struct PoseGraphManagerOptions {
+  LoopClosingMode mode = LoopClosingMode::kFull;
+  /// Vocabulary per descriptor type (relative paths are relative to the package root; the
+  /// caller resolves them, see resolveVocabularyPath). The mode picks one.
+  std::string vocabulary_orb = "config/vocabulary/orb_k8l4.vocab";
+  std::string vocabulary_brief = "config/vocabulary/brief_k8l4.vocab";
+  /// Keypoint extraction of visual submaps; must equal the vocabulary's training settings.
+  /// `descriptor` is set by the mode and must not be given.
+  FeatureExtractionOptions features;
+  MagneticSubmapOptions magnetic;
+  LoopDetectorOptions loop;
+  PoseGraphOptions graph;
+
+  /// true: everything runs inline in the feed calls (deterministic; offline runner, tests).
+  /// false: a processing thread describes keyframes and detects loops and an optimiser thread
+  /// runs the Ceres solve on a snapshot, so feed calls only enqueue.
+  bool synchronous = false;
+  /// Besides after every accepted loop, optimise every this many keyframes so the geomagnetic
+  /// yaw factors act even without loops (10 keyframes: a few seconds).
+  int optimise_every_n_keyframes = 10;
+  /// Loop detection of a keyframe waits until magnetic data up to its time has arrived (the
+  /// signature of a 2 s window is published ~1.1 s after its centre) or until a keyframe this
+  /// much newer [s] arrives (magnetometer silent).
+  double magnetic_wait_s = 2.5;
+  /// A geomagnetic sample becomes a yaw factor of the keyframe nearest in time if within this
+  /// [s]; at most one per keyframe (the low-passed samples are strongly correlated, more would
+  /// overweight the compass). 0.2 s: the AUV yaws at most a few degrees in that time.
+  double geomagnetic_max_dt_s = 0.2;
+  /// A signature is placed on the trajectory by interpolating the keyframes around it; past the
+  /// last keyframe of its session it may use the nearest one within this [s].
+  double signature_max_extrapolation_s = 0.5;
+  /// VIO reset inside a run: the new session is linked to the last keyframe of the previous one
+  /// by a weak "the vehicle did not move far" edge: sigma = base + rate * time gap, position [m]
+  /// and yaw [deg] (the AUV moves < 0.5 m/s and turns < 10 deg/s). Loops and yaw factors dominate it.
+  double session_link_position_sigma_m = 1.0;
+  double session_link_position_sigma_per_s = 0.5;
+  double session_link_yaw_sigma_rad = 20.0 * M_PI / 180.0;       ///< key session_link_yaw_sigma_deg
+  double session_link_yaw_sigma_per_s_rad = 10.0 * M_PI / 180.0; ///< key session_link_yaw_sigma_per_s_deg
+
+  ModeSettings modeSettings() const { return ModeSettings::forMode(mode); }
+  /// The vocabulary path of the mode's descriptor type.
+  const std::string& vocabularyPath() const;
+  /// Feature options with the mode's descriptor.
+  FeatureExtractionOptions featureOptions() const;
+
+  /// Keys: mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
+  /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,
+  /// and the mappings features, magnetic_submaps, loop_closing, pose_graph.
+  static PoseGraphManagerOptions fromReader(const ConfigReader& reader);
+  void validate() const;
+  std::string toYaml() const;
+};
+
+/// A relative vocabulary path resolved against `package_root` (absolute paths unchanged).
+std::string resolveVocabularyPath(const std::string& path, const std::string& package_root);
+
+}  // namespace vims

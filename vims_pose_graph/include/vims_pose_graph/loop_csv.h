@@ -1,0 +1,35 @@
+#pragma once
+/// @file loop_csv.h
+/// @brief `loops.csv`: one row per loop verification attempt, the format vims_eval reads
+/// (vims_eval/src/loops.cpp): header `t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,
+/// mag_distance,bow_score,stage`; x..qw is T_match_query (identity before PnP succeeded);
+/// mag_distance [T] and bow_score are empty when that stage did not score the pair.
+
+#include <fstream>
+#include <string>
+
+#include "vims_pose_graph/loop_detector.h"
+
+namespace vims {
+
+/// The header row (no trailing newline).
+const char* loopCsvHeader();
+/// One row (no trailing newline).
+std::string formatLoopCsvRow(const LoopAttempt& attempt);
+
+class LoopCsvWriter {
+ public:
+  /// Creates (truncates) the file and writes the header. Throws std::runtime_error if it cannot
+  /// be opened.
+  explicit LoopCsvWriter(const std::string& path);
+  /// Throws std::runtime_error on an I/O error.
+  void write(const LoopAttempt& attempt);
+  void flush();
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::ofstream out_;
+};
+
+}  // namespace vims

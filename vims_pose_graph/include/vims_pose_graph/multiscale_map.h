@@ -1,0 +1,196 @@
+#pragma once
+/// @file multiscale_map.h
+/// @brief The multi-scale visual-magnetic map (paper, "Multi-Scale Map Construction") together
+/// with the pose graph it hangs on: keyframe nodes (VIO pose, optimised world pose, visual
+/// submap), VIO sessions, sequential / session-link / loop edges, geomagnetic yaw factors,
+/// magnetic submaps and the bag-of-words database; 4-DoF snapshots for PoseGraph4Dof::solve;
+/// binary save and load. docs/pose_graph.md, "Map", "Sessions" and "Map file".
+///
+/// Why not PoseGraph4Dof's own bookkeeping: that class holds one VIO chain with non-decreasing
+/// times. The map also holds several VIO sessions of one run (a VIO reset), and sessions loaded
+/// from a file recorded on another day (their times are another run's clock), possibly not yet
+/// connected to the current run (before relocalisation). It keeps sessions in connected
+/// components (union-find over sessions, joined by session links and loops) and solves one
+/// component at a time with PoseGraph4Dof::solve, whose residuals, losses and gauge it reuses.
+///
+/// Not thread-safe; the PoseGraphManager serialises access.
+
+#include <Eigen/Geometry>
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "vims_common/log.h"
+#include "vims_pose_graph/bow_database.h"
+#include "vims_pose_graph/keyframe_description.h"
+#include "vims_pose_graph/magnetic_submap.h"
+#include "vims_pose_graph/pose_graph.h"
+
+namespace vims {
+
+/// Thrown by MultiScaleMap::load for a missing, truncated, corrupt or incompatible map file;
+/// what() names the file and the problem.
+class MapFileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A chain of keyframes from one VIO session (one odom frame).
+struct MapSession {
+  uint32_t vio_session = 0;  ///< KeyframeData::session it came from
+  bool loaded = false;       ///< from a map file (another run)
+  PoseGraphNodeId first_node = 0;
+  PoseGraphNodeId last_node = 0;
+  uint32_t num_nodes = 0;
+};
+
+/// One keyframe of the map.
+struct MapNode {
+  PoseGraphNode pose;        ///< t, T_odom_b, fixed pitch/roll, optimised p_w_b and yaw_w_b
+  uint32_t session = 0;      ///< index into MultiScaleMap::sessions()
+  VisualSubmap visual;       ///< may be empty (no usable corners)
+  int64_t bow_image = -1;    ///< BowDatabase id, -1 without a visual submap
+  /// The magnetometer was producing signature windows around this keyframe's time. Keyframes
+  /// without (magnetometer off) cannot be clustered by magnetism, so the magnetic stage leaves
+  /// them in the visual search instead of making them unreachable.
+  bool magnetic_coverage = false;
+};
+
+/// The four numbers of a 4-DoF correction p <- Rz(d_yaw) p + t, yaw <- yaw + d_yaw.
+struct Correction4Dof {
+  double d_yaw = 0.0;
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+};
+
+/// The correction that moves a pose (p_old, yaw_old) to (p_new, yaw_new).
+Correction4Dof correctionBetween(const Eigen::Vector3d& p_old, double yaw_old, const Eigen::Vector3d& p_new,
+                                 double yaw_new);
+
+/// The snapshot of one connected component with the global ids of its nodes (snapshot index k
+/// is node ids[k]; ids are ascending, so node 0 of the snapshot -- the gauge PoseGraph4Dof::solve
+/// fixes -- is the component's oldest keyframe).
+struct ComponentSnapshot {
+  PoseGraphSnapshot snapshot;
+  std::vector<PoseGraphNodeId> ids;
+};
+
+class MultiScaleMap {
+ public:
+  /// File format version written by save().
+  static constexpr uint32_t kFileVersion = 1;
+
+  /// `vocabulary` may be null only for a map that never gets visual submaps. `declination_rad`
+  /// is the site's magnetic declination (east positive). Throws std::invalid_argument for
+  /// invalid graph options.
+  MultiScaleMap(std::shared_ptr<const BinaryVocabulary> vocabulary, const PoseGraphOptions& graph_options,
+                double declination_rad, LoggerPtr logger = nullptr);
+
+  // ---- building
+  /// A new session (a new chain); returns its index.
+  uint32_t addSession(uint32_t vio_session, bool loaded);
+  /// Appends a keyframe to `session` with its initial world pose (yaw + position; roll and
+  /// pitch come from T_odom_b). A non-empty visual submap is added to the BoW database.
+  /// Throws std::invalid_argument for an unknown session or a non-finite pose.
+  PoseGraphNodeId addNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b, const Eigen::Vector3d& p_w_b,
+                          double yaw_w_b, VisualSubmap visual, bool magnetic_coverage);
+  /// VIO relative pose between two nodes of one session (sigmas as PoseGraph4Dof: growing with distance).
+  void addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to);
+  /// The weak "did not move far" edge from the last node of a session to the first of the next
+  /// (zero relative motion, the given sigmas); joins their components.
+  void addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, double sigma_position_m, double sigma_yaw_rad);
+  /// A verified loop (T_match_query = pose of the query body in the match body frame). Joins
+  /// the two components (call moveComponent first if the query's component is to be re-placed).
+  LoopEdgeId addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query, const Eigen::Isometry3d& T_match_query);
+  /// A geomagnetic yaw factor from the low-passed geomagnetic field in the BODY frame. False
+  /// when the field is not finite or its horizontal part is below mag_min_horizontal_field_tesla.
+  /// The first accepted measurement of a component without loaded sessions rotates that
+  /// component about its oldest keyframe to the measured heading (the VIO yaw is arbitrary; at
+  /// 180 deg off the chordal residual has no gradient). A loaded map's frame is never rotated.
+  bool addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3d& B_b_geomagnetic);
+  uint32_t addMagneticSubmap(const MagneticSubmapDraft& draft);
+  void setMagneticCoverage(PoseGraphNodeId node, bool covered);
+
+  // ---- components
+  /// Representative of the node's connected component.
+  uint32_t componentOf(PoseGraphNodeId node) const;
+  bool sameComponent(PoseGraphNodeId a, PoseGraphNodeId b) const { return componentOf(a) == componentOf(b); }
+  /// The component of node 0 (the loaded map's, or the run's first session's): the map frame.
+  bool inReferenceComponent(PoseGraphNodeId node) const;
+  bool componentHasLoadedSessions(uint32_t component) const;
+  /// Applies a 4-DoF correction to every node of the component.
+  void moveComponent(uint32_t component, const Correction4Dof& correction);
+
+  // ---- optimisation
+  /// Snapshot of the component containing `node`.
+  ComponentSnapshot snapshotComponent(PoseGraphNodeId node) const;
+  /// Writes a solution back: snapshot nodes take their optimised poses; nodes of the same
+  /// component that were not in the snapshot (added or re-placed meanwhile) move with the
+  /// correction of the last snapshot node of their session (or of the snapshot's last node).
+  /// A failed solve changes nothing. Returns false when the solution does not fit the snapshot.
+  bool applySolution(const ComponentSnapshot& snapshot, const PoseGraphSolution& solution);
+
+  // ---- queries
+  size_t numNodes() const { return nodes_.size(); }
+  const MapNode& node(PoseGraphNodeId id) const { return nodes_.at(id); }
+  const std::vector<MapNode>& nodes() const { return nodes_; }
+  const std::vector<MapSession>& sessions() const { return sessions_; }
+  const std::vector<SequentialEdge>& sequentialEdges() const { return sequential_edges_; }
+  const std::vector<LoopEdge>& loopEdges() const { return loop_edges_; }
+  const std::vector<YawMeasurement>& yawMeasurements() const { return yaw_measurements_; }
+  const std::vector<MagneticSubmap>& magneticSubmaps() const { return magnetic_submaps_; }
+  const BowDatabase* bowDatabase() const { return bow_.get(); }
+  /// Node of a BoW image id.
+  PoseGraphNodeId nodeOfImage(ImageId image) const { return image_to_node_.at(image); }
+  const std::shared_ptr<const BinaryVocabulary>& vocabulary() const { return vocabulary_; }
+  const PoseGraphOptions& graphOptions() const { return graph_options_; }
+
+  Eigen::Isometry3d worldPose(PoseGraphNodeId id) const { return nodes_.at(id).pose.T_w_b(); }
+  /// T_w_b T_odom_b^-1 at a node: the drift correction of its session (exactly 4-DoF).
+  Eigen::Isometry3d T_map_odom(PoseGraphNodeId id) const;
+  /// World position of a magnetic submap (its tied keyframe's).
+  Eigen::Vector3d magneticSubmapPosition(const MagneticSubmap& submap) const;
+  /// Keyframes with a visual submap in the same component as the submap's tied keyframe whose
+  /// horizontal world distance to the submap is at most radius + cluster_margin_m (ascending).
+  std::vector<PoseGraphNodeId> clusteredNodes(const MagneticSubmap& submap, double cluster_margin_m) const;
+
+  // ---- persistence
+  /// Writes the whole map (file format in docs/pose_graph.md) with the vocabulary reference
+  /// (path as given + checksum). Throws std::runtime_error on an I/O error.
+  void save(const std::string& path, const std::string& vocabulary_path) const;
+  std::vector<uint8_t> serialize(const std::string& vocabulary_path) const;
+  /// Loads a file into this map, which must be empty; every session becomes a loaded session.
+  /// Throws MapFileError (missing, truncated, corrupt, other version, inconsistent contents,
+  /// descriptor type or vocabulary checksum differing from this map's vocabulary).
+  void load(const std::string& path);
+  void deserialize(const std::vector<uint8_t>& bytes, const std::string& source_name);
+
+  /// FNV-1a 64 of the vocabulary's serialised bytes (0 without a vocabulary).
+  uint64_t vocabularyChecksum() const { return vocabulary_checksum_; }
+
+ private:
+  uint32_t findSession(uint32_t session) const;
+  void uniteSessions(uint32_t a, uint32_t b);
+  void checkNode(PoseGraphNodeId id, const char* what) const;
+  void applyCorrection(MapNode& n, const Correction4Dof& c) const;
+
+  std::shared_ptr<const BinaryVocabulary> vocabulary_;
+  uint64_t vocabulary_checksum_ = 0;
+  PoseGraphOptions graph_options_;
+  Eigen::Vector2d north_enu_;
+  LoggerPtr logger_;
+  std::unique_ptr<BowDatabase> bow_;
+  std::vector<PoseGraphNodeId> image_to_node_;
+  std::vector<MapNode> nodes_;
+  std::vector<MapSession> sessions_;
+  std::vector<uint32_t> session_parent_;  ///< union-find over sessions; a root is its component's oldest session
+  std::vector<uint32_t> session_yaw_count_;
+  std::vector<SequentialEdge> sequential_edges_;
+  std::vector<LoopEdge> loop_edges_;
+  LoopEdgeId next_loop_id_ = 0;
+  std::vector<YawMeasurement> yaw_measurements_;
+  std::vector<MagneticSubmap> magnetic_submaps_;
+};
+
+}  // namespace vims

@@ -1,0 +1,417 @@
+#include "vims_pose_graph/loop_detector.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+namespace vims {
+
+namespace {
+constexpr const char* kComponent = "loop_closing";
+
+/// Descriptor indices of each point.
+std::vector<std::vector<uint32_t>> descriptorsByPoint(const DescribedPoints& points) {
+  std::vector<std::vector<uint32_t>> by_point(points.numPoints());
+  for (uint32_t d = 0; d < points.descriptors.size(); ++d) {
+    const uint32_t p = points.point_of_descriptor[d];
+    if (p < by_point.size()) by_point[p].push_back(d);
+  }
+  return by_point;
+}
+
+/// Distance of a described point to a keypoint: the best over the point's descriptors whose
+/// level is within max_level_difference of the keypoint's octave (< 0: all levels).
+int pointDistance(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
+                  const BinaryDescriptor& other, int octave = 0, int max_level_difference = -1) {
+  int best = 257;
+  for (uint32_t d : descriptor_ids) {
+    if (max_level_difference >= 0 && std::abs(points.level_of_descriptor[d] - octave) > max_level_difference) continue;
+    best = std::min(best, hammingDistance(points.descriptors[d], other));
+  }
+  return best;
+}
+}  // namespace
+
+std::string toString(LoopStage stage) {
+  switch (stage) {
+    case LoopStage::kMagnetic:
+      return "magnetic";
+    case LoopStage::kBow:
+      return "bow";
+    case LoopStage::kMatching:
+      return "matching";
+    case LoopStage::kPnp:
+      return "pnp";
+    case LoopStage::kCovisibility:
+      return "covisibility";
+    case LoopStage::kAccepted:
+      return "accepted";
+  }
+  return "magnetic";
+}
+
+LoopStage loopStageFromString(const std::string& name) {
+  for (LoopStage s : {LoopStage::kMagnetic, LoopStage::kBow, LoopStage::kMatching, LoopStage::kPnp,
+                      LoopStage::kCovisibility, LoopStage::kAccepted})
+    if (toString(s) == name) return s;
+  throw std::invalid_argument("unknown loop stage '" + name + "'");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Matching
+// ---------------------------------------------------------------------------------------------
+
+std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, const VisualSubmap& candidate,
+                                               double ratio, int max_distance, double duplicate_radius_px,
+                                               int max_level_difference) {
+  std::vector<PointMatch> matches;
+  const size_t num_keypoints = candidate.keypoints.size();
+  if (points.empty() || num_keypoints == 0 || candidate.descriptors.size() != num_keypoints) return matches;
+  const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(points);
+  const double duplicate_r2 = duplicate_radius_px * duplicate_radius_px;
+  std::vector<int> distance(num_keypoints);
+  for (uint32_t p = 0; p < by_point.size(); ++p) {
+    if (by_point[p].empty()) continue;
+    size_t best = 0;
+    for (size_t k = 0; k < num_keypoints; ++k) {
+      distance[k] = pointDistance(points, by_point[p], candidate.descriptors[k], candidate.keypoints[k].octave,
+                                  max_level_difference);
+      if (distance[k] < distance[best]) best = k;
+    }
+    if (distance[best] > max_distance) continue;
+    if (ratio < 1.0) {
+      // Second best among keypoints at another place: the same corner detected on another
+      // pyramid level is not a competing match.
+      const cv::Point2f& at = candidate.keypoints[best].pt;
+      int second = 257;
+      for (size_t k = 0; k < num_keypoints; ++k) {
+        if (k == best) continue;
+        const cv::Point2f d = candidate.keypoints[k].pt - at;
+        if (static_cast<double>(d.x) * d.x + static_cast<double>(d.y) * d.y <= duplicate_r2) continue;
+        second = std::min(second, distance[k]);
+      }
+      if (!(distance[best] < ratio * second)) continue;
+    }
+    matches.push_back(PointMatch{p, static_cast<uint32_t>(best), distance[best]});
+  }
+  // One point per keypoint: keep the closest (ties: the lower point index, the order above).
+  std::map<uint32_t, size_t> owner;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    auto it = owner.find(matches[i].keypoint);
+    if (it == owner.end())
+      owner.emplace(matches[i].keypoint, i);
+    else if (matches[i].distance < matches[it->second].distance)
+      it->second = i;
+  }
+  std::vector<PointMatch> unique;
+  unique.reserve(owner.size());
+  for (size_t i = 0; i < matches.size(); ++i)
+    if (owner.at(matches[i].keypoint) == i) unique.push_back(matches[i]);
+  return unique;
+}
+
+// ---------------------------------------------------------------------------------------------
+// LoopVerifier
+// ---------------------------------------------------------------------------------------------
+
+LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera)
+    : options_(options), camera_(camera), T_b_c_(camera.T_b_c), T_c_b_(camera.T_b_c.inverse()) {
+  options_.validate();
+  if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || camera.width <= 0 || camera.height <= 0)
+    throw std::invalid_argument("LoopVerifier: invalid camera calibration");
+}
+
+VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScaleMap& map,
+                                        PoseGraphNodeId candidate) const {
+  VerificationResult r;
+  const MapNode& cand = map.node(candidate);
+  const VisualSubmap& sub = cand.visual;
+  const std::vector<PointMatch> matches =
+      matchPointsToKeypoints(query.points, sub, options_.match_ratio, options_.match_max_distance,
+                             options_.match_duplicate_radius_px, options_.match_max_level_difference);
+  r.num_matches = static_cast<int>(matches.size());
+  if (r.num_matches < options_.pnp_min_inliers) {
+    r.stage = LoopStage::kMatching;
+    return r;
+  }
+
+  // PnP on undistorted normalised coordinates (camera matrix = identity): the query's points in
+  // its VIO frame, the candidate's keypoints -> the candidate camera's pose in that frame.
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  object.reserve(matches.size());
+  image.reserve(matches.size());
+  for (const PointMatch& m : matches) {
+    const Eigen::Vector3d& p = query.points.p_odom[m.point];
+    object.emplace_back(p.x(), p.y(), p.z());
+    image.emplace_back(sub.normalized[m.keypoint].x(), sub.normalized[m.keypoint].y());
+  }
+  const double focal = 0.5 * (camera_.fx + camera_.fy);
+  const double threshold = options_.pnp_reprojection_px / focal;
+  const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
+  cv::Mat rvec, tvec;
+  std::vector<int> ransac_inliers;
+  bool ok = false;
+  try {
+    // AP3P hypotheses from 4-point samples (a clean sample is far likelier than EPnP's 5 at the
+    // 30-50 % inlier rates of a seabed revisit), EPnP on all inliers of the best one; OpenCV's
+    // RANSAC uses a fixed seed, so the result is deterministic.
+    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, options_.pnp_iterations,
+                            static_cast<float>(threshold), options_.pnp_confidence, ransac_inliers, cv::SOLVEPNP_AP3P);
+  } catch (const cv::Exception&) {
+    ok = false;  // degenerate configurations (all points collinear, ...) are a rejection, not a crash
+  }
+  r.num_inliers = static_cast<int>(ransac_inliers.size());
+  if (!ok || r.num_inliers < options_.pnp_min_inliers) {
+    r.stage = LoopStage::kPnp;
+    return r;
+  }
+  // Refine on the inliers (Levenberg-Marquardt on the reprojection error), then recount.
+  std::vector<cv::Point3d> object_in;
+  std::vector<cv::Point2d> image_in;
+  for (int i : ransac_inliers) {
+    object_in.push_back(object[static_cast<size_t>(i)]);
+    image_in.push_back(image[static_cast<size_t>(i)]);
+  }
+  try {
+    cv::solvePnPRefineLM(object_in, image_in, K, cv::noArray(), rvec, tvec,
+                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 1e-12));
+  } catch (const cv::Exception&) {
+    r.stage = LoopStage::kPnp;
+    return r;
+  }
+  cv::Mat R_cv;
+  cv::Rodrigues(rvec, R_cv);
+  Eigen::Matrix3d R_cm_odomq;
+  Eigen::Vector3d t_cm_odomq;
+  cv::cv2eigen(R_cv, R_cm_odomq);
+  cv::cv2eigen(tvec, t_cm_odomq);
+  if (!R_cm_odomq.allFinite() || !t_cm_odomq.allFinite()) {
+    r.stage = LoopStage::kPnp;
+    return r;
+  }
+  Eigen::Isometry3d T_cm_odomq = Eigen::Isometry3d::Identity();
+  T_cm_odomq.linear() = R_cm_odomq;
+  T_cm_odomq.translation() = t_cm_odomq;
+  r.inlier_matches.clear();
+  for (const PointMatch& m : matches) {
+    const Eigen::Vector3d p_c = T_cm_odomq * query.points.p_odom[m.point];
+    if (!(p_c.z() > 0.0)) continue;  // a point behind the camera is never an inlier
+    const Eigen::Vector2d e = p_c.head<2>() / p_c.z() - sub.normalized[m.keypoint];
+    if (e.norm() <= threshold) r.inlier_matches.emplace_back(m.point, m.keypoint);
+  }
+  r.num_inliers = static_cast<int>(r.inlier_matches.size());
+  if (r.num_inliers < options_.pnp_min_inliers) {
+    r.stage = LoopStage::kPnp;
+    return r;
+  }
+  const Eigen::Isometry3d T_bm_odomq = T_b_c_ * T_cm_odomq;
+  r.T_match_query = T_bm_odomq * query.T_odom_b;
+  r.has_pose = true;
+
+  if (options_.covisibility_neighbours > 0) {
+    r.covisibility_confirming_neighbours = covisibleNeighbours(query, map, candidate, T_bm_odomq, r.inlier_matches);
+    if (r.covisibility_confirming_neighbours < options_.covisibility_min_neighbours) {
+      r.stage = LoopStage::kCovisibility;
+      return r;
+    }
+  }
+  r.stage = LoopStage::kAccepted;
+  return r;
+}
+
+int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId match,
+                                      const Eigen::Isometry3d& T_bm_odomq,
+                                      const std::vector<std::pair<uint32_t, uint32_t>>& inliers) const {
+  const MapNode& m = map.node(match);
+  const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(query.points);
+  const double r2 = options_.covisibility_search_radius_px * options_.covisibility_search_radius_px;
+  int confirming = 0;
+  for (int offset = -options_.covisibility_neighbours; offset <= options_.covisibility_neighbours; ++offset) {
+    if (offset == 0) continue;
+    const int64_t id = static_cast<int64_t>(match) + offset;
+    if (id < 0 || id >= static_cast<int64_t>(map.numNodes())) continue;
+    const MapNode& n = map.node(static_cast<PoseGraphNodeId>(id));
+    if (n.session != m.session || n.visual.empty()) continue;
+    // The neighbour's pose relative to the match from the VIO (locally accurate), chained with
+    // the PnP pose: where the neighbour camera must see each inlier if the loop is right.
+    const Eigen::Isometry3d T_cn_odomq = T_c_b_ * n.pose.T_odom_b.inverse() * m.pose.T_odom_b * T_bm_odomq;
+    int projected = 0;
+    int confirmed = 0;
+    for (const auto& [point, keypoint] : inliers) {
+      (void)keypoint;
+      Eigen::Vector2d uv;
+      if (!projectToPixel(camera_, T_cn_odomq * query.points.p_odom[point], &uv)) continue;
+      if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() >= camera_.width || uv.y() >= camera_.height) continue;
+      ++projected;
+      for (size_t k = 0; k < n.visual.keypoints.size(); ++k) {
+        const double dx = n.visual.keypoints[k].pt.x - uv.x();
+        const double dy = n.visual.keypoints[k].pt.y - uv.y();
+        if (dx * dx + dy * dy > r2) continue;
+        if (pointDistance(query.points, by_point[point], n.visual.descriptors[k], n.visual.keypoints[k].octave,
+                          options_.match_max_level_difference) <= options_.match_max_distance) {
+          ++confirmed;
+          break;
+        }
+      }
+    }
+    if (projected >= options_.covisibility_min_points &&
+        static_cast<double>(confirmed) >= options_.covisibility_min_ratio * projected)
+      ++confirming;
+  }
+  return confirming;
+}
+
+// ---------------------------------------------------------------------------------------------
+// HierarchicalLoopDetector
+// ---------------------------------------------------------------------------------------------
+
+HierarchicalLoopDetector::HierarchicalLoopDetector(const LoopDetectorOptions& options,
+                                                   const MagneticSubmapOptions& magnetic_options,
+                                                   const ModeSettings& mode, const CameraCalibration& camera,
+                                                   LoggerPtr logger)
+    : options_(options),
+      magnetic_options_(magnetic_options),
+      mode_(mode),
+      verifier_(options, camera),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()) {
+  magnetic_options_.validate();
+}
+
+bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeId query,
+                                        PoseGraphNodeId candidate) const {
+  const MapNode& c = map.node(candidate);
+  if (map.sessions().at(c.session).loaded) return false;  // another run: never "recent"
+  const MapNode& q = map.node(query);
+  if (query >= candidate && query - candidate < static_cast<PoseGraphNodeId>(options_.exclude_recent_keyframes))
+    return true;
+  if (candidate > query) return true;  // not older than the query
+  return q.pose.t - c.pose.t < options_.exclude_recent_s;
+}
+
+DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const MultiScaleMap& map) const {
+  DetectionResult res;
+  const BowDatabase* db = map.bowDatabase();
+  if (db == nullptr || query.bow.empty() ||
+      query.points.numPoints() < static_cast<size_t>(options_.pnp_min_inliers) || query.node >= map.numNodes())
+    return res;
+
+  auto eligible = [&](PoseGraphNodeId n) {
+    return n != query.node && map.node(n).bow_image >= 0 && !isRecent(map, query.node, n);
+  };
+  auto attemptFor = [&](PoseGraphNodeId n) {
+    LoopAttempt a;
+    a.t_query = query.t;
+    a.t_match = map.node(n).pose.t;
+    a.query_node = query.node;
+    a.match_node = n;
+    return a;
+  };
+
+  std::vector<PoseGraphNodeId> pool;
+  std::map<PoseGraphNodeId, double> mag_distance_of;
+  std::optional<LoopAttempt> magnetic_rejection;
+  if (mode_.magnetic_stage && query.signature_enu) {
+    res.magnetic_stage_used = true;
+    const Eigen::Vector3d& s_q = *query.signature_enu;
+    std::vector<std::pair<double, uint32_t>> scored;  // (distance, submap)
+    std::vector<std::pair<double, uint32_t>> passed;
+    for (const MagneticSubmap& s : map.magneticSubmaps()) {
+      if (s.tied_node == query.node || isRecent(map, query.node, s.tied_node)) continue;
+      const double d = (s_q - s.signature_enu).norm();
+      scored.emplace_back(d, s.id);
+      if (d <= options_.mag_distance_relative * s.signature_enu.norm() + options_.mag_distance_floor_tesla)
+        passed.emplace_back(d, s.id);
+    }
+    std::sort(passed.begin(), passed.end());
+    if (passed.size() > static_cast<size_t>(options_.mag_max_candidates))
+      passed.resize(static_cast<size_t>(options_.mag_max_candidates));
+    std::set<PoseGraphNodeId> members;
+    for (const auto& [d, id] : passed) {
+      res.magnetic_candidates.emplace_back(id, d);
+      for (PoseGraphNodeId n : map.clusteredNodes(map.magneticSubmaps()[id], magnetic_options_.cluster_margin_m)) {
+        if (!eligible(n)) continue;
+        members.insert(n);
+        auto it = mag_distance_of.find(n);
+        if (it == mag_distance_of.end() || d < it->second) mag_distance_of[n] = d;
+      }
+    }
+    // Keyframes recorded while the magnetometer was silent carry no magnetic information: the
+    // magnetic stage cannot exclude them, so they stay in the visual search.
+    for (PoseGraphNodeId n = 0; n < map.numNodes(); ++n)
+      if (!map.node(n).magnetic_coverage && eligible(n)) members.insert(n);
+    pool.assign(members.begin(), members.end());
+    if (passed.empty() && !scored.empty()) {
+      const auto nearest = *std::min_element(scored.begin(), scored.end());
+      LoopAttempt a = attemptFor(map.magneticSubmaps()[nearest.second].tied_node);
+      a.mag_distance = nearest.first;
+      a.stage = LoopStage::kMagnetic;
+      magnetic_rejection = a;
+    }
+  } else {
+    for (PoseGraphNodeId n = 0; n < map.numNodes(); ++n)
+      if (eligible(n)) pool.push_back(n);
+  }
+  res.bow_pool = pool;
+  if (pool.empty()) {
+    if (magnetic_rejection && options_.record_prefilter_rejections) res.attempts.push_back(*magnetic_rejection);
+    return res;
+  }
+
+  std::vector<ImageId> images;
+  images.reserve(pool.size());
+  for (PoseGraphNodeId n : pool) images.push_back(static_cast<ImageId>(map.node(n).bow_image));
+  const std::vector<BowQueryResult> scores = db->queryAmong(query.bow, images, images.size());
+  const size_t limit = static_cast<size_t>(mode_.verify_all_bow_candidates ? options_.bow_max_candidates_all
+                                                                           : options_.bow_max_candidates);
+  std::vector<std::pair<PoseGraphNodeId, double>> candidates;
+  for (const BowQueryResult& s : scores) {
+    if (s.score < options_.bow_min_score || candidates.size() >= limit) break;
+    candidates.emplace_back(map.nodeOfImage(s.image), s.score);
+  }
+  if (candidates.empty()) {
+    if (options_.record_prefilter_rejections) {
+      if (!scores.empty()) {
+        const PoseGraphNodeId n = map.nodeOfImage(scores.front().image);
+        LoopAttempt a = attemptFor(n);
+        a.bow_score = scores.front().score;
+        const auto it = mag_distance_of.find(n);
+        if (it != mag_distance_of.end()) a.mag_distance = it->second;
+        a.stage = LoopStage::kBow;
+        res.attempts.push_back(a);
+      } else if (magnetic_rejection) {
+        res.attempts.push_back(*magnetic_rejection);
+      }
+    }
+    return res;
+  }
+
+  res.bow_candidates = candidates;
+  for (const auto& [n, score] : candidates) {
+    const VerificationResult v = verifier_.verify(query, map, n);
+    LoopAttempt a = attemptFor(n);
+    a.bow_score = score;
+    const auto it = mag_distance_of.find(n);
+    if (it != mag_distance_of.end()) a.mag_distance = it->second;
+    a.stage = v.stage;
+    a.inliers = v.stage == LoopStage::kMatching ? v.num_matches : v.num_inliers;
+    if (v.has_pose) a.T_match_query = v.T_match_query;
+    a.accepted = v.stage == LoopStage::kAccepted;
+    res.attempts.push_back(a);
+    logger_->debug(kComponent, VIMS_STR("loop attempt t_query=" << query.t << " t_match=" << a.t_match
+                                        << " bow=" << score << " matches=" << v.num_matches << " inliers="
+                                        << v.num_inliers << " -> " << toString(v.stage)));
+    if (a.accepted) {
+      res.accepted = a;
+      break;
+    }
+  }
+  return res;
+}
+
+}  // namespace vims

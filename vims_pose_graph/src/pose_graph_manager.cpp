@@ -1,0 +1,667 @@
+#include "vims_pose_graph/pose_graph_manager.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "vims_pose_graph/angles.h"
+
+namespace vims {
+
+namespace {
+constexpr const char* kComponent = "pose_graph_manager";
+constexpr double kDeg = M_PI / 180.0;
+
+bool isValidPose(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3d R = T.linear();
+  return T.translation().allFinite() && R.allFinite() &&
+         (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
+}
+
+double yawOf(const Eigen::Matrix3d& R) { return yawPitchRollFromRotation(R).yaw; }
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Construction
+// ---------------------------------------------------------------------------------------------
+
+std::shared_ptr<const BinaryVocabulary> PoseGraphManager::loadVocabulary(const PoseGraphManagerOptions& options,
+                                                                         const std::string& package_root) {
+  return std::make_shared<const BinaryVocabulary>(
+      BinaryVocabulary::load(resolveVocabularyPath(options.vocabularyPath(), package_root)));
+}
+
+PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const SequenceConfig& sequence,
+                                   std::shared_ptr<const BinaryVocabulary> vocabulary, LoggerPtr logger)
+    : options_(options),
+      mode_(options.modeSettings()),
+      sequence_(sequence),
+      vocabulary_(std::move(vocabulary)),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()),
+      describer_(options.featureOptions(), options.loop.harris_threshold, sequence.camera,
+                 options.loop.submap_include_tracked_corners),
+      detector_(options.loop, options.magnetic, options.modeSettings(), sequence.camera, logger_),
+      map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
+      magnetic_builder_(options.magnetic) {
+  options_.validate();
+  if (!vocabulary_ || vocabulary_->empty())
+    throw std::invalid_argument("PoseGraphManager: no vocabulary (load " + options_.vocabularyPath() + ")");
+  if (vocabulary_->descriptorType() != toString(mode_.descriptor))
+    throw std::invalid_argument("PoseGraphManager: mode '" + toString(options_.mode) + "' needs a '" +
+                                toString(mode_.descriptor) + "' vocabulary, got a '" + vocabulary_->descriptorType() +
+                                "' one");
+  logger_->info(kComponent, VIMS_STR("mode " << toString(options_.mode) << " (descriptor " << toString(mode_.descriptor)
+                                     << ", magnetic stage " << (mode_.magnetic_stage ? "on" : "off")
+                                     << ", geomagnetic yaw " << (mode_.geomagnetic_yaw ? "on" : "off") << "), "
+                                     << (options_.synchronous ? "synchronous" : "worker threads")));
+  if (!options_.synchronous) {
+    processing_thread_ = std::thread([this] { processingLoop(); });
+    optimiser_thread_ = std::thread([this] { optimiserLoop(); });
+  }
+}
+
+PoseGraphManager::~PoseGraphManager() {
+  {
+    std::lock_guard<std::mutex> lk(queue_mutex_);
+    stop_ = true;
+  }
+  queue_cv_.notify_all();
+  optimise_cv_.notify_all();
+  idle_cv_.notify_all();
+  if (processing_thread_.joinable()) processing_thread_.join();
+  if (optimiser_thread_.joinable()) optimiser_thread_.join();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs and threads
+// ---------------------------------------------------------------------------------------------
+
+void PoseGraphManager::feedKeyframe(const KeyframeData& keyframe) {
+  if (options_.synchronous) {
+    Event e = keyframe;
+    dispatch(e);
+    return;
+  }
+  KeyframeData copy = keyframe;
+  copy.image = keyframe.image.clone();  // the caller may reuse its buffer
+  enqueue(std::move(copy));
+}
+
+void PoseGraphManager::feedSignature(const SignatureWindow& window) {
+  if (options_.synchronous) {
+    Event e = window;
+    dispatch(e);
+    return;
+  }
+  enqueue(window);
+}
+
+void PoseGraphManager::feedGeomagnetic(double t, const Eigen::Vector3d& field_body) {
+  if (options_.synchronous) {
+    Event e = GeomagneticEvent{t, field_body};
+    dispatch(e);
+    return;
+  }
+  enqueue(GeomagneticEvent{t, field_body});
+}
+
+void PoseGraphManager::finish() {
+  if (options_.synchronous) {
+    Event e = FinishEvent{};
+    dispatch(e);
+    return;
+  }
+  enqueue(FinishEvent{});
+  waitForIdle();
+}
+
+void PoseGraphManager::enqueue(Event event) {
+  {
+    std::lock_guard<std::mutex> lk(queue_mutex_);
+    events_.push_back(std::move(event));
+  }
+  queue_cv_.notify_one();
+}
+
+void PoseGraphManager::dispatch(Event& event) {
+  if (auto* kf = std::get_if<KeyframeData>(&event)) {
+    // Description is the expensive part (ORB, BoW, replication); it needs no map state, so it
+    // runs before taking the lock.
+    VisualSubmap submap;
+    DescribedPoints points;
+    if (std::isfinite(kf->t) && isValidPose(kf->T_odom_b)) {
+      submap = describer_.describeKeyframe(kf->image, kf->features, vocabulary_.get(), &points);
+    }
+    std::lock_guard<std::mutex> lk(state_mutex_);
+    handleKeyframe(*kf, std::move(submap), std::move(points));
+  } else if (auto* w = std::get_if<SignatureWindow>(&event)) {
+    std::lock_guard<std::mutex> lk(state_mutex_);
+    handleSignature(*w);
+  } else if (auto* g = std::get_if<GeomagneticEvent>(&event)) {
+    std::lock_guard<std::mutex> lk(state_mutex_);
+    handleGeomagnetic(g->t, g->field_body);
+  } else {
+    std::lock_guard<std::mutex> lk(state_mutex_);
+    handleFinish();
+  }
+}
+
+void PoseGraphManager::waitForIdle() const {
+  if (options_.synchronous) return;
+  std::unique_lock<std::mutex> lk(queue_mutex_);
+  idle_cv_.wait(lk, [&] {
+    return stop_ || (events_.empty() && !processing_busy_ && !optimisation_requested_ && !optimising_);
+  });
+}
+
+void PoseGraphManager::processingLoop() {
+  for (;;) {
+    Event event;
+    {
+      std::unique_lock<std::mutex> lk(queue_mutex_);
+      queue_cv_.wait(lk, [&] { return stop_ || !events_.empty(); });
+      if (stop_) return;
+      event = std::move(events_.front());
+      events_.pop_front();
+      processing_busy_ = true;  // in the same critical section as the pop: never "idle" in between
+    }
+    try {
+      dispatch(event);
+    } catch (const std::exception& e) {
+      logger_->error(kComponent, VIMS_STR("processing failed: " << e.what()));
+    }
+    {
+      std::lock_guard<std::mutex> lk(queue_mutex_);
+      processing_busy_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void PoseGraphManager::optimiserLoop() {
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lk(queue_mutex_);
+      optimise_cv_.wait(lk, [&] { return stop_ || optimisation_requested_; });
+      if (stop_) return;
+      optimisation_requested_ = false;
+      optimising_ = true;
+    }
+    try {
+      std::vector<ComponentSnapshot> snapshots;
+      {
+        std::lock_guard<std::mutex> lk(state_mutex_);
+        if (map_.numNodes() > 0) {
+          snapshots.push_back(map_.snapshotComponent(0));
+          if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back()))
+            snapshots.push_back(map_.snapshotComponent(run_nodes_.back()));
+        }
+      }
+      // The solve runs without the map lock: keyframes keep arriving and outputs stay readable.
+      std::vector<PoseGraphSolution> solutions;
+      for (const ComponentSnapshot& s : snapshots) solutions.push_back(PoseGraph4Dof::solve(s.snapshot));
+      std::lock_guard<std::mutex> lk(state_mutex_);
+      for (size_t i = 0; i < snapshots.size(); ++i) map_.applySolution(snapshots[i], solutions[i]);
+      ++stats_.optimisations;
+    } catch (const std::exception& e) {
+      logger_->error(kComponent, VIMS_STR("optimisation failed: " << e.what()));
+    }
+    {
+      std::lock_guard<std::mutex> lk(queue_mutex_);
+      optimising_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void PoseGraphManager::requestOptimisation() {
+  keyframes_since_optimisation_ = 0;
+  if (options_.synchronous) {
+    optimiseInline();
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lk(queue_mutex_);  // lock order: state, then queue
+    optimisation_requested_ = true;
+  }
+  optimise_cv_.notify_one();
+}
+
+void PoseGraphManager::optimiseInline() {
+  if (map_.numNodes() == 0) return;
+  std::vector<PoseGraphNodeId> roots{0};
+  if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back())) roots.push_back(run_nodes_.back());
+  for (PoseGraphNodeId root : roots) {
+    const ComponentSnapshot s = map_.snapshotComponent(root);
+    const PoseGraphSolution solution = PoseGraph4Dof::solve(s.snapshot);
+    map_.applySolution(s, solution);
+    const PoseGraphReport& r = solution.report;
+    logger_->debug(kComponent, VIMS_STR("optimised " << r.num_nodes << " nodes, " << r.num_loop_edges << " loops, "
+                                        << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost << " -> "
+                                        << r.final_cost << " (" << r.message << ")"));
+  }
+  ++stats_.optimisations;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Handlers (state lock held)
+// ---------------------------------------------------------------------------------------------
+
+void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap submap, DescribedPoints points) {
+  if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) {
+    ++stats_.keyframes_rejected;
+    logger_->warnThrottled(kComponent, "bad_keyframe", std::isfinite(kf.t) ? kf.t : 0.0, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " dropped: non-finite time or invalid pose"));
+    return;
+  }
+  if (!run_nodes_.empty() && !(kf.t > map_.node(run_nodes_.back()).pose.t)) {
+    ++stats_.keyframes_rejected;
+    logger_->warnThrottled(kComponent, "keyframe_time", kf.t, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " dropped: not after the previous keyframe (t="
+                                    << map_.node(run_nodes_.back()).pose.t << ")"));
+    return;
+  }
+  const bool new_session = !current_session_ || kf.session != current_vio_session_;
+  const bool has_previous = !run_nodes_.empty();
+  const PoseGraphNodeId previous = has_previous ? run_nodes_.back() : 0;
+  Eigen::Vector3d p_w_b;
+  double yaw_w_b = 0.0;
+  uint32_t session = 0;
+  if (new_session) {
+    session = map_.addSession(kf.session, false);
+    if (has_previous) {
+      // A VIO reset: the new odom frame is unrelated to the old one, but the vehicle is where
+      // it was a moment ago; start the new chain there (and link it with a weak edge below).
+      const MapNode& prev = map_.node(previous);
+      p_w_b = prev.pose.p_w_b;
+      yaw_w_b = prev.pose.yaw_w_b;
+      logger_->warn(kComponent, VIMS_STR("VIO session " << current_vio_session_ << " -> " << kf.session << " at t="
+                                         << kf.t << ": new chain, linked to the previous one by a weak prior"));
+    } else {
+      // The run's first keyframe: the map frame starts as its VIO frame (or, with a loaded map,
+      // as a provisional frame until the first loop into the map relocalises the run).
+      p_w_b = kf.T_odom_b.translation();
+      yaw_w_b = yawOf(kf.T_odom_b.linear());
+    }
+    current_session_ = session;
+    current_vio_session_ = kf.session;
+    ++stats_.sessions;
+  } else {
+    session = *current_session_;
+    const Eigen::Isometry3d T_w_b = map_.T_map_odom(previous) * kf.T_odom_b;
+    p_w_b = T_w_b.translation();
+    yaw_w_b = yawOf(T_w_b.linear());
+  }
+  const bool has_visual = !submap.empty() && !submap.bow.empty();
+  BowVector bow = submap.bow;
+  const PoseGraphNodeId id = map_.addNode(kf.t, session, kf.T_odom_b, p_w_b, yaw_w_b, std::move(submap), false);
+  if (has_previous) {
+    if (new_session) {
+      const double dt = std::max(0.0, kf.t - map_.node(previous).pose.t);
+      const double sigma_p = options_.session_link_position_sigma_m + options_.session_link_position_sigma_per_s * dt;
+      const double sigma_yaw =
+          std::min(M_PI, options_.session_link_yaw_sigma_rad + options_.session_link_yaw_sigma_per_s_rad * dt);
+      map_.addSessionLink(previous, id, sigma_p, sigma_yaw);
+    } else {
+      map_.addSequentialEdge(previous, id);
+    }
+  }
+  run_nodes_.push_back(id);
+  latest_keyframe_t_ = kf.t;
+  ++stats_.keyframes;
+  if (!has_visual) {
+    ++stats_.empty_keyframes;
+    logger_->warnThrottled(kComponent, "empty_keyframe", kf.t, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " has no usable image corners (empty or dark image):"
+                                    << " pose-graph node without visual submap"));
+  }
+  PendingKeyframe pending;
+  pending.node = id;
+  pending.t = kf.t;
+  pending.bow = std::move(bow);
+  pending.points = std::move(points);
+  pending.has_visual = has_visual;
+  pending_.push_back(std::move(pending));
+  ++keyframes_since_optimisation_;
+  processReady(false);
+  if (keyframes_since_optimisation_ >= options_.optimise_every_n_keyframes &&
+      (!map_.yawMeasurements().empty() || !map_.loopEdges().empty()))
+    requestOptimisation();
+}
+
+void PoseGraphManager::handleSignature(const SignatureWindow& w) {
+  if (!mode_.magnetic_stage || !std::isfinite(w.t)) return;
+  if (w.t < latest_signature_t_) {
+    logger_->warnThrottled(kComponent, "signature_time", w.t, 10.0,
+                           VIMS_STR("signature window at t=" << w.t << " dropped: older than the previous one (t="
+                                    << latest_signature_t_ << ")"));
+    return;
+  }
+  StoredWindow s;
+  s.t = w.t;
+  s.valid = w.valid && w.amplitude_enu.allFinite();
+  s.amplitude_enu = s.valid ? w.amplitude_enu : Eigen::Vector3d::Zero();
+  windows_.push_back(s);
+  unplaced_.push_back(s);
+  latest_signature_t_ = w.t;
+  processReady(false);
+}
+
+void PoseGraphManager::handleGeomagnetic(double t, const Eigen::Vector3d& field_body) {
+  if (!mode_.geomagnetic_yaw || !std::isfinite(t)) return;
+  if (!field_body.allFinite()) {
+    logger_->warnThrottled(kComponent, "geomagnetic_nan", t, 10.0, "non-finite geomagnetic field ignored");
+    return;
+  }
+  if (t < latest_geomagnetic_t_) return;
+  geomagnetic_.push_back(GeomagneticEvent{t, field_body});
+  latest_geomagnetic_t_ = t;
+  processReady(false);
+}
+
+void PoseGraphManager::handleFinish() {
+  processReady(true);
+  if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
+  if (map_.numNodes() > 0) requestOptimisation();
+}
+
+void PoseGraphManager::processReady(bool flush) {
+  placeSignatures(flush);
+  while (!pending_.empty()) {
+    const PendingKeyframe& p = pending_.front();
+    bool ready = flush || latest_keyframe_t_ >= p.t + options_.magnetic_wait_s;
+    if (!ready) {
+      const bool signature_ok =
+          !mode_.magnetic_stage || latest_signature_t_ >= p.t + options_.loop.query_signature_max_dt_s;
+      const bool yaw_ok = !mode_.geomagnetic_yaw || latest_geomagnetic_t_ >= p.t + options_.geomagnetic_max_dt_s;
+      ready = signature_ok && yaw_ok;
+    }
+    if (!ready) break;
+    PendingKeyframe item = std::move(pending_.front());
+    pending_.pop_front();
+    processPending(item);
+  }
+  pruneBuffers();
+}
+
+void PoseGraphManager::processPending(PendingKeyframe& p) {
+  if (mode_.geomagnetic_yaw) {
+    const GeomagneticEvent* nearest = nullptr;
+    for (const GeomagneticEvent& g : geomagnetic_)
+      if (std::abs(g.t - p.t) <= options_.geomagnetic_max_dt_s &&
+          (nearest == nullptr || std::abs(g.t - p.t) < std::abs(nearest->t - p.t)))
+        nearest = &g;
+    if (nearest != nullptr && map_.addYawMeasurement(p.node, nearest->field_body)) ++stats_.yaw_factors;
+  }
+
+  std::optional<Eigen::Vector3d> signature;
+  bool magnetometer_heard = false;
+  if (mode_.magnetic_stage) {
+    double best_dt = 1e300;
+    for (const StoredWindow& w : windows_) {
+      const double dt = std::abs(w.t - p.t);
+      if (dt > options_.loop.query_signature_max_dt_s) continue;
+      magnetometer_heard = true;
+      if (w.valid && w.amplitude_enu.norm() >= options_.magnetic.min_amplitude_tesla && dt < best_dt) {
+        best_dt = dt;
+        signature = w.amplitude_enu;
+      }
+    }
+    map_.setMagneticCoverage(p.node, magnetometer_heard);
+  }
+  if (!p.has_visual) return;
+  if (mode_.magnetic_stage && !signature) {
+    if (!magnetometer_heard)
+      logger_->warnThrottled(kComponent, "magnetometer_silent", p.t, 10.0,
+                             VIMS_STR("no magnetic signature near t=" << p.t
+                                      << " (magnetometer silent): magnetic stage skipped, loops from vision alone"));
+    else
+      logger_->debug(kComponent, VIMS_STR("no valid signature near t=" << p.t << " (coil not heard): magnetic stage skipped"));
+  }
+
+  LoopQuery query;
+  query.node = p.node;
+  query.t = p.t;
+  query.T_odom_b = map_.node(p.node).pose.T_odom_b;
+  query.bow = std::move(p.bow);
+  query.points = std::move(p.points);
+  query.signature_enu = signature;
+  ++stats_.loop_queries;
+  DetectionResult result = detector_.detect(query, map_);
+  attempts_.insert(attempts_.end(), result.attempts.begin(), result.attempts.end());
+  stats_.loop_attempts += result.attempts.size();
+  const std::optional<LoopAttempt> accepted = result.accepted;
+  last_detection_ = std::move(result);
+  if (accepted) acceptLoop(*accepted);
+}
+
+void PoseGraphManager::acceptLoop(const LoopAttempt& a) {
+  const PoseGraphNodeId m = a.match_node;
+  const PoseGraphNodeId q = a.query_node;
+  if (!map_.sameComponent(m, q)) {
+    // The loop joins two components whose frames are unrelated (a run and a loaded map before
+    // relocalisation): move one rigidly (4-DoF) so the loop holds, then join them. The
+    // reference component (the loaded map's frame) never moves.
+    const MapNode& nm = map_.node(m);
+    const MapNode& nq = map_.node(q);
+    const RelativePose4Dof z = relativePose4DofFromRelative(a.T_match_query, nm.pose.pitch, nm.pose.roll);
+    const bool q_in_reference = map_.inReferenceComponent(q);
+    const bool m_in_reference = map_.inReferenceComponent(m);
+    if (!q_in_reference) {
+      const double yaw_q = wrapAngle(nm.pose.yaw_w_b + z.yaw_i_j);
+      const Eigen::Vector3d p_q = nm.pose.p_w_b + rotationZ(nm.pose.yaw_w_b) * z.p_li_j;
+      map_.moveComponent(map_.componentOf(q), correctionBetween(nq.pose.p_w_b, nq.pose.yaw_w_b, p_q, yaw_q));
+    } else {
+      const double yaw_m = wrapAngle(nq.pose.yaw_w_b - z.yaw_i_j);
+      const Eigen::Vector3d p_m = nq.pose.p_w_b - rotationZ(yaw_m) * z.p_li_j;
+      map_.moveComponent(map_.componentOf(m), correctionBetween(nm.pose.p_w_b, nm.pose.yaw_w_b, p_m, yaw_m));
+    }
+    if ((q_in_reference || m_in_reference) && map_loaded_ && !stats_.relocalised) {
+      stats_.relocalised = true;
+      logger_->info(kComponent, VIMS_STR("relocalised into the loaded map at t=" << a.t_query << " (match t="
+                                         << a.t_match << ", " << a.inliers << " inliers)"));
+    }
+  }
+  map_.addLoopEdge(m, q, a.T_match_query);
+  ++stats_.loops_accepted;
+  logger_->info(kComponent, VIMS_STR("loop accepted: t_query=" << a.t_query << " t_match=" << a.t_match << " inliers="
+                                     << a.inliers << " bow=" << a.bow_score));
+  requestOptimisation();
+}
+
+void PoseGraphManager::placeSignatures(bool flush) {
+  auto nodeTime = [&](PoseGraphNodeId id) { return map_.node(id).pose.t; };
+  while (!unplaced_.empty()) {
+    if (run_nodes_.empty()) {
+      if (!flush) return;  // keyframes may still come
+      unplaced_.clear();
+      return;
+    }
+    const StoredWindow w = unplaced_.front();
+    // Wait for the keyframe after the window, so it is interpolated rather than extrapolated.
+    if (w.t > nodeTime(run_nodes_.back()) && !flush) return;
+    unplaced_.pop_front();
+    if (!w.valid) {
+      addMagneticDraft(magnetic_builder_.breakGroup());
+      continue;
+    }
+    const auto after = std::upper_bound(run_nodes_.begin(), run_nodes_.end(), w.t,
+                                        [&](double t, PoseGraphNodeId id) { return t < nodeTime(id); });
+    std::optional<PoseGraphNodeId> a, b;
+    if (after != run_nodes_.begin()) a = *(after - 1);
+    if (after != run_nodes_.end()) b = *after;
+    PlacedSignature ps;
+    ps.t = w.t;
+    ps.signature_enu = w.amplitude_enu;
+    bool placed = false;
+    if (a && b && map_.node(*a).session == map_.node(*b).session) {
+      const MapNode& na = map_.node(*a);
+      const MapNode& nb = map_.node(*b);
+      const double span = nb.pose.t - na.pose.t;
+      const double f = span > 0.0 ? (w.t - na.pose.t) / span : 0.0;
+      ps.p_odom = (1.0 - f) * na.pose.T_odom_b.translation() + f * nb.pose.T_odom_b.translation();
+      ps.session = na.session;
+      ps.nearest_node = f <= 0.5 ? *a : *b;
+      placed = true;
+    } else {
+      for (const std::optional<PoseGraphNodeId>& c : {a, b}) {
+        if (!c || std::abs(nodeTime(*c) - w.t) > options_.signature_max_extrapolation_s) continue;
+        if (placed && std::abs(nodeTime(*c) - w.t) >= std::abs(nodeTime(ps.nearest_node) - w.t)) continue;
+        ps.p_odom = map_.node(*c).pose.T_odom_b.translation();
+        ps.session = map_.node(*c).session;
+        ps.nearest_node = *c;
+        placed = true;
+      }
+    }
+    if (!placed) {
+      addMagneticDraft(magnetic_builder_.breakGroup());
+      continue;
+    }
+    addMagneticDraft(magnetic_builder_.add(ps));
+  }
+}
+
+void PoseGraphManager::addMagneticDraft(const std::optional<MagneticSubmapDraft>& draft) {
+  if (!draft) return;
+  map_.addMagneticSubmap(*draft);
+  ++stats_.magnetic_submaps;
+}
+
+void PoseGraphManager::pruneBuffers() {
+  // Keep what a waiting keyframe may still need (its time +- the association windows) and at
+  // most a minute of history when no keyframe comes (VIO not initialised yet).
+  const double margin = std::max(options_.loop.query_signature_max_dt_s, options_.geomagnetic_max_dt_s) + 1.0;
+  double horizon = pending_.empty() ? latest_keyframe_t_ - margin : pending_.front().t - margin;
+  horizon = std::max(horizon, std::max(latest_signature_t_, latest_geomagnetic_t_) - 60.0);
+  while (!windows_.empty() && windows_.front().t < horizon) windows_.pop_front();
+  while (!geomagnetic_.empty() && geomagnetic_.front().t < horizon) geomagnetic_.pop_front();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Map files
+// ---------------------------------------------------------------------------------------------
+
+void PoseGraphManager::loadMap(const std::string& path) {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  if (!run_nodes_.empty() || map_loaded_)
+    throw std::logic_error("PoseGraphManager::loadMap: load the map before the first keyframe (and only once)");
+  map_.load(path);
+  map_loaded_ = true;
+  stats_.loaded_keyframes = map_.numNodes();
+}
+
+void PoseGraphManager::saveMap(const std::string& path) const {
+  waitForIdle();
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  map_.save(path, options_.vocabularyPath());
+  logger_->info(kComponent, VIMS_STR("saved map '" << path << "': " << map_.numNodes() << " keyframes, "
+                                     << map_.loopEdges().size() << " loops, " << map_.magneticSubmaps().size()
+                                     << " magnetic submaps"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs
+// ---------------------------------------------------------------------------------------------
+
+std::vector<KeyframePose> PoseGraphManager::keyframePoses(bool include_loaded) const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  std::vector<KeyframePose> out;
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    const MapSession& s = map_.sessions()[n.session];
+    if (s.loaded && !include_loaded) continue;
+    KeyframePose k;
+    k.node = i;
+    k.t = n.pose.t;
+    k.vio_session = s.vio_session;
+    k.loaded = s.loaded;
+    k.T_w_b = n.pose.T_w_b();
+    out.push_back(k);
+  }
+  return out;
+}
+
+Eigen::Isometry3d PoseGraphManager::T_map_odom() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  if (run_nodes_.empty()) return Eigen::Isometry3d::Identity();
+  return map_.T_map_odom(run_nodes_.back());
+}
+
+Eigen::Isometry3d PoseGraphManager::correctedPose(const Eigen::Isometry3d& T_odom_b) const {
+  return T_map_odom() * T_odom_b;
+}
+
+std::vector<LoopEdgeInfo> PoseGraphManager::loopEdges() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  std::vector<LoopEdgeInfo> out;
+  for (const LoopEdge& e : map_.loopEdges()) {
+    LoopEdgeInfo i;
+    i.id = e.id;
+    i.match = e.match;
+    i.query = e.query;
+    i.t_match = map_.node(e.match).pose.t;
+    i.t_query = map_.node(e.query).pose.t;
+    i.T_match_query = e.T_match_query;
+    i.p_w_match = map_.node(e.match).pose.p_w_b;
+    i.p_w_query = map_.node(e.query).pose.p_w_b;
+    i.enabled = e.enabled;
+    out.push_back(i);
+  }
+  return out;
+}
+
+std::vector<LoopAttempt> PoseGraphManager::loopAttempts() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  return attempts_;
+}
+
+std::vector<LoopAttempt> PoseGraphManager::takeNewLoopAttempts() {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  std::vector<LoopAttempt> out(attempts_.begin() + static_cast<std::ptrdiff_t>(attempts_taken_), attempts_.end());
+  attempts_taken_ = attempts_.size();
+  return out;
+}
+
+MapContents PoseGraphManager::mapContents() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  MapContents c;
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    if (n.visual.empty()) continue;
+    VisualSubmapMarker v;
+    v.node = i;
+    v.t = n.pose.t;
+    v.p_w = n.pose.p_w_b;
+    v.num_keypoints = n.visual.keypoints.size();
+    v.loaded = map_.sessions()[n.session].loaded;
+    c.visual.push_back(v);
+  }
+  for (const MagneticSubmap& s : map_.magneticSubmaps()) {
+    MagneticSubmapMarker m;
+    m.id = s.id;
+    m.tied_node = s.tied_node;
+    m.p_w = map_.magneticSubmapPosition(s);
+    m.radius_m = s.radius_m;
+    m.signature_enu = s.signature_enu;
+    m.clustered = map_.clusteredNodes(s, options_.magnetic.cluster_margin_m);
+    c.magnetic.push_back(m);
+  }
+  return c;
+}
+
+PoseGraphManagerStats PoseGraphManager::stats() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  return stats_;
+}
+
+std::optional<DetectionResult> PoseGraphManager::lastDetection() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  return last_detection_;
+}
+
+void PoseGraphManager::inspectMap(const std::function<void(const MultiScaleMap&)>& f) const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  f(map_);
+}
+
+}  // namespace vims

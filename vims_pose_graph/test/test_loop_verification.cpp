@@ -1,0 +1,481 @@
+/// Visual submaps, corner replication, 3D-2D matching, PnP and covisibility verification, and
+/// the hierarchical (magnetic -> BoW -> geometric) search, on keyframes rendered by the
+/// simulator's seabed renderer.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/features2d.hpp>
+
+#include <numeric>
+
+#include "loop_test_world.h"
+#include "vims_pose_graph/keyframe_description.h"
+#include "vims_pose_graph/loop_detector.h"
+#include "vims_pose_graph/multiscale_map.h"
+
+namespace vims {
+namespace {
+
+using test::bodyPose;
+using test::kDeg;
+using test::yawTransform;
+
+constexpr uint64_t kWorldSeed = 4242;  // not the vocabulary's training world (9001)
+
+LoopDetectorOptions testLoopOptions() {
+  LoopDetectorOptions o;
+  // The test maps are short: a few keyframes, seconds apart.
+  o.exclude_recent_keyframes = 3;
+  o.exclude_recent_s = 1.0;
+  return o;
+}
+
+/// A map of one pass along +x (heading 0) at 2.5 m altitude, keyframes 0.4 m apart, whose VIO
+/// frame is the world (the map run is the reference).
+struct PassMap {
+  PassMap(const test::TestWorld& world, DescriptorType descriptor, double y = 0.0, double x0 = 0.0, int n = 7)
+      : map(test::vocabulary(descriptor == DescriptorType::kOrb ? "orb_k8l4.vocab" : "brief_k8l4.vocab"),
+            PoseGraphOptions(), 0.0),
+        describer(features(descriptor), LoopDetectorOptions().harris_threshold, world.camera()) {
+    const uint32_t session = map.addSession(0, false);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Isometry3d T_w_b = bodyPose(x0 + 0.4 * i, y, 2.5, 0.0, 1.0, -0.5);
+      poses.push_back(T_w_b);
+      const KeyframeData kf = world.keyframe(1.0 * i, 0, T_w_b, T_w_b);
+      VisualSubmap v = describe(kf);
+      map.addNode(kf.t, session, T_w_b, T_w_b.translation(), yawPitchRollFromRotation(T_w_b.linear()).yaw, v, true);
+      if (i > 0) map.addSequentialEdge(static_cast<PoseGraphNodeId>(i - 1), static_cast<PoseGraphNodeId>(i));
+    }
+  }
+  static FeatureExtractionOptions features(DescriptorType d) {
+    FeatureExtractionOptions f;
+    f.descriptor = d;
+    return f;
+  }
+  /// The keyframe's visual submap (detected keypoints + replicated tracked corners).
+  VisualSubmap describe(const KeyframeData& kf, DescribedPoints* points = nullptr) {
+    DescribedPoints unused;
+    return describer.describeKeyframe(kf.image, kf.features, map.vocabulary().get(), points ? points : &unused);
+  }
+  /// Adds a query keyframe as a node (a new session of a later time) and returns its query.
+  LoopQuery addQuery(const KeyframeData& kf, const Eigen::Isometry3d& T_w_b) {
+    const uint32_t session = map.addSession(1, false);
+    LoopQuery q;
+    VisualSubmap v = describe(kf, &q.points);
+    q.bow = v.bow;
+    q.node = map.addNode(kf.t, session, kf.T_odom_b, T_w_b.translation(), yawPitchRollFromRotation(T_w_b.linear()).yaw,
+                         v, true);
+    q.t = kf.t;
+    q.T_odom_b = kf.T_odom_b;
+    return q;
+  }
+
+  MultiScaleMap map;
+  KeyframeDescriber describer;
+  std::vector<Eigen::Isometry3d> poses;
+};
+
+/// A body pose whose camera (0.25 m ahead of the body) is over `camera_xy`, turned by `heading_deg`.
+Eigen::Isometry3d poseWithCameraAt(const Eigen::Vector2d& camera_xy, double z, double heading_deg, double pitch_deg = 0.0,
+                                   double roll_deg = 0.0) {
+  const Eigen::Vector2d body_xy = camera_xy - Eigen::Rotation2Dd(heading_deg * kDeg) * Eigen::Vector2d(0.25, 0.0);
+  return bodyPose(body_xy.x(), body_xy.y(), z, heading_deg, pitch_deg, roll_deg);
+}
+
+void expectPoseNear(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth, double max_m, double max_deg) {
+  const double dp = (estimate.translation() - truth.translation()).norm();
+  const double da = Eigen::AngleAxisd(estimate.linear().transpose() * truth.linear()).angle() / kDeg;
+  EXPECT_LT(dp, max_m) << "estimate " << estimate.translation().transpose() << " truth " << truth.translation().transpose();
+  EXPECT_LT(da, max_deg);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Corner replication
+// ---------------------------------------------------------------------------------------------
+
+TEST(CornerReplication, ReplicatedKeypointMatchesOrbsOwnDescriptor) {
+  test::TestWorld world(kWorldSeed);
+  const cv::Mat image = world.render(bodyPose(1.0, 2.0, 2.5, 30.0));
+  // ORB's own keypoints at level 0: replicating them at the same place must give ORB's angle
+  // and (nearly) ORB's descriptor, i.e. the replication computes what ORB would.
+  FeatureExtractionOptions fo;
+  FeatureExtractor extractor(fo);
+  const ImageFeatures orb = extractor.extract(image);
+  std::vector<KeyframeFeature> tracked;
+  std::vector<size_t> source;
+  for (size_t i = 0; i < orb.keypoints.size() && tracked.size() < 40; ++i) {
+    if (orb.keypoints[i].octave != 0) continue;
+    KeyframeFeature f;
+    f.id = i;
+    f.pixel = Eigen::Vector2d(orb.keypoints[i].pt.x, orb.keypoints[i].pt.y);
+    f.p_odom = Eigen::Vector3d(1.0, 2.0, 0.0);
+    tracked.push_back(f);
+    source.push_back(i);
+  }
+  ASSERT_GE(tracked.size(), 20u);
+  KeyframeDescriber describer(fo, 0.0, world.camera());
+  const DescribedPoints points = describer.describePoints(image, tracked);
+  ASSERT_EQ(points.numPoints(), tracked.size());
+  int compared = 0, close = 0;
+  for (size_t d = 0; d < points.descriptors.size(); ++d) {
+    if (points.level_of_descriptor[d] != 0) continue;
+    const size_t i = source[points.point_of_descriptor[d]];
+    ++compared;
+    if (hammingDistance(points.descriptors[d], orb.descriptors[i]) <= 10) ++close;
+  }
+  EXPECT_EQ(compared, static_cast<int>(tracked.size()));
+  EXPECT_GE(close, compared * 9 / 10);
+  // Several pyramid levels per corner.
+  EXPECT_GT(points.descriptors.size(), 3 * tracked.size());
+}
+
+TEST(CornerReplication, LowHarrisResponsesAreDropped) {
+  test::TestWorld world(kWorldSeed);
+  const KeyframeData kf = world.keyframe(0.0, 0, bodyPose(0, 0, 2.5, 0), bodyPose(0, 0, 2.5, 0));
+  ASSERT_GT(kf.features.size(), 50u);
+  FeatureExtractionOptions fo;
+  KeyframeDescriber all(fo, 0.0, world.camera());
+  KeyframeDescriber strict(fo, 1e-4, world.camera());
+  const DescribedPoints a = all.describePoints(kf.image, kf.features);
+  const DescribedPoints s = strict.describePoints(kf.image, kf.features);
+  EXPECT_GT(a.descriptors.size(), s.descriptors.size());
+  // A flat (textureless) image: no corner survives anywhere.
+  const cv::Mat flat(480, 640, CV_8UC1, cv::Scalar(90));
+  EXPECT_TRUE(all.describePoints(flat, kf.features).descriptors.empty());
+  // BRIEF: one descriptor per point, level 0.
+  fo.descriptor = DescriptorType::kBrief;
+  KeyframeDescriber brief(fo, 0.0, world.camera());
+  const DescribedPoints b = brief.describePoints(kf.image, kf.features);
+  EXPECT_GT(b.descriptors.size(), 0u);
+  EXPECT_LE(b.descriptors.size(), b.numPoints());
+  for (int level : b.level_of_descriptor) EXPECT_EQ(level, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Verification
+// ---------------------------------------------------------------------------------------------
+
+TEST(LoopVerification, AcceptsRevisitFromOtherHeadingsWithCorrectRelativePose) {
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kOrb);
+  LoopVerifier verifier(testLoopOptions(), world.camera());
+  // The query's VIO frame is unrelated to the map's (another yaw and origin).
+  const Eigen::Isometry3d T_odom_w = yawTransform(-70.0, Eigen::Vector3d(12.0, -4.0, 0.3));
+  for (double heading : {90.0, 180.0, -135.0}) {
+    // Camera 0.1 m from keyframe 3's camera, body turned by `heading`.
+    const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.53, 0.06), 2.7, heading, -1.5, 2.0);
+    const KeyframeData kf = world.keyframe(100.0, 1, T_w_bq, T_odom_w * T_w_bq);
+    const LoopQuery q = pass.addQuery(kf, T_w_bq);
+    const PoseGraphNodeId match = 3;
+    const VerificationResult r = verifier.verify(q, pass.map, match);
+    ASSERT_EQ(r.stage, LoopStage::kAccepted) << "heading " << heading << ": matches " << r.num_matches << " inliers "
+                                             << r.num_inliers;
+    SCOPED_TRACE(VIMS_STR("heading " << heading << ": " << r.num_inliers << " inliers"));
+    EXPECT_GE(r.num_inliers, 25);
+    const Eigen::Isometry3d T_match_query_gt = pass.poses[match].inverse() * T_w_bq;
+    expectPoseNear(r.T_match_query, T_match_query_gt, 0.1, 1.0);
+  }
+}
+
+TEST(LoopVerification, RejectsCandidatesFromADifferentPlace) {
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kOrb);
+  LoopVerifier verifier(testLoopOptions(), world.camera());
+  // 40 m away: same kind of seabed, different place.
+  for (double heading : {0.0, 90.0}) {
+    const Eigen::Isometry3d T_w_bq = bodyPose(41.0, -7.0, 2.5, heading);
+    const LoopQuery q = pass.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
+    for (PoseGraphNodeId candidate = 0; candidate < 7; ++candidate) {
+      const VerificationResult r = verifier.verify(q, pass.map, candidate);
+      EXPECT_NE(r.stage, LoopStage::kAccepted) << "candidate " << candidate;
+    }
+  }
+}
+
+TEST(LoopVerification, BriefBaselineFailsOnRotatedRevisit) {
+  // The paper's point about the VI-SLAM baseline: BRIEF is not rotation invariant.
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kBrief);
+  LoopVerifier verifier(testLoopOptions(), world.camera());
+  const Eigen::Isometry3d same = bodyPose(1.3, 0.2, 2.6, 3.0);
+  const LoopQuery q0 = pass.addQuery(world.keyframe(100.0, 1, same, same), same);
+  EXPECT_EQ(verifier.verify(q0, pass.map, 3).stage, LoopStage::kAccepted);
+  const Eigen::Isometry3d turned = bodyPose(1.3, 0.2, 2.6, 180.0);
+  const LoopQuery q1 = pass.addQuery(world.keyframe(101.0, 2, turned, turned), turned);
+  EXPECT_NE(verifier.verify(q1, pass.map, 3).stage, LoopStage::kAccepted);
+}
+
+TEST(LoopVerification, CovisibilityRejectsAPoseTheNeighboursContradict) {
+  // A correct revisit passes covisibility; the same match with the map keyframe's VIO poses
+  // made inconsistent (neighbours placed 1.5 m off) fails it.
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kOrb);
+  LoopVerifier verifier(testLoopOptions(), world.camera());
+  const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.5, 0.1), 2.6, 120.0);
+  const LoopQuery q = pass.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
+  const VerificationResult good = verifier.verify(q, pass.map, 3);
+  ASSERT_EQ(good.stage, LoopStage::kAccepted);
+  EXPECT_GE(good.covisibility_confirming_neighbours, 2);
+
+  PassMap shifted(world, DescriptorType::kOrb, 0.0, 0.0, 0);
+  const uint32_t s = shifted.map.addSession(0, false);
+  for (int i = 0; i < 7; ++i) {
+    Eigen::Isometry3d T_odom_b = pass.poses[static_cast<size_t>(i)];
+    if (i != 3) T_odom_b.translation().y() += 1.5;  // the neighbours' VIO poses disagree with their images
+    shifted.map.addNode(i, s, T_odom_b, T_odom_b.translation(), 0.0, pass.map.node(static_cast<PoseGraphNodeId>(i)).visual, true);
+  }
+  const LoopQuery q2 = shifted.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
+  const VerificationResult bad = verifier.verify(q2, shifted.map, 3);
+  EXPECT_EQ(bad.stage, LoopStage::kCovisibility) << "good: " << good.num_matches << "/" << good.num_inliers
+                                                 << ", bad: " << bad.num_matches << "/" << bad.num_inliers;
+  EXPECT_TRUE(bad.has_pose);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The 2NN ratio test and the PnP inlier minimum each matter
+// ---------------------------------------------------------------------------------------------
+
+/// A candidate keyframe built from the query image's own ORB features placed twice (a place with
+/// two identical objects: every query point has two equally good matches), or once restricted to
+/// a small patch (a repeated object too small to be a place), shifted by a pure image
+/// translation, as a downward camera translated over the plane sees it.
+VisualSubmap copiedFeatures(const VisualSubmap& source, const std::vector<double>& shifts_px, double fx,
+                            const cv::Rect& region) {
+  VisualSubmap out;
+  for (double shift : shifts_px) {
+    for (size_t i = 0; i < source.keypoints.size(); ++i) {
+      if (!region.contains(source.keypoints[i].pt)) continue;
+      cv::KeyPoint kp = source.keypoints[i];
+      kp.pt.x += static_cast<float>(shift);
+      out.keypoints.push_back(kp);
+      out.descriptors.push_back(source.descriptors[i]);
+      out.normalized.push_back(source.normalized[i] + Eigen::Vector2d(shift / fx, 0.0));
+    }
+  }
+  out.bow = source.bow;
+  return out;
+}
+
+TEST(LoopVerification, RatioTestRejectsAmbiguousMatchesThatWouldOtherwiseCloseAWrongLoop) {
+  test::TestWorld world(kWorldSeed);
+  const Eigen::Isometry3d T_w_b = bodyPose(5.0, 5.0, 2.5, 10.0);
+  const KeyframeData kf = world.keyframe(10.0, 0, T_w_b, T_w_b);
+  KeyframeDescriber describer(FeatureExtractionOptions(), LoopDetectorOptions().harris_threshold, world.camera());
+  DescribedPoints own_points;
+  const VisualSubmap own =
+      describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &own_points);
+  const double fx = world.camera().fx;
+  MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+  const uint32_t s = map.addSession(0, true);
+  // Two identical copies 300 px apart: the first copy's keypoints come first, so without the
+  // ratio test every tie goes to it and the matches are geometrically consistent.
+  map.addNode(0.0, s, T_w_b, T_w_b.translation(), 0.0,
+              copiedFeatures(own, {-150.0, 150.0}, fx, cv::Rect(0, 0, 640, 480)), true);
+  LoopQuery q;
+  q.node = 0;
+  q.t = 10.0;
+  q.T_odom_b = T_w_b;
+  q.bow = own.bow;
+  q.points = own_points;
+
+  LoopDetectorOptions o = testLoopOptions();
+  o.covisibility_neighbours = 0;  // isolate matching + PnP
+  const VerificationResult with_ratio = LoopVerifier(o, world.camera()).verify(q, map, 0);
+  EXPECT_EQ(with_ratio.stage, LoopStage::kMatching) << with_ratio.num_matches << " matches";
+  o.match_ratio = 1.0;  // ratio test off
+  const VerificationResult without_ratio = LoopVerifier(o, world.camera()).verify(q, map, 0);
+  EXPECT_EQ(without_ratio.stage, LoopStage::kAccepted)
+      << "without the ratio test the ambiguous place is accepted: " << without_ratio.num_inliers << " inliers";
+}
+
+TEST(LoopVerification, InlierMinimumRejectsASmallConsistentPatch) {
+  test::TestWorld world(kWorldSeed);
+  const Eigen::Isometry3d T_w_b = bodyPose(-3.0, 8.0, 2.5, 45.0);
+  const KeyframeData kf = world.keyframe(10.0, 0, T_w_b, T_w_b);
+  KeyframeDescriber describer(FeatureExtractionOptions(), LoopDetectorOptions().harris_threshold, world.camera());
+  DescribedPoints own_points;
+  const VisualSubmap own =
+      describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &own_points);
+  // Another place (20 m away) whose image also contains a small patch identical to part of the
+  // query image: a repeated object.
+  const Eigen::Isometry3d T_w_other = bodyPose(17.0, 8.0, 2.5, 45.0);
+  VisualSubmap other = describer.describeImage(world.render(T_w_other), test::vocabulary("orb_k8l4.vocab").get());
+  // The patch: the bounding box of the 12 tracked corners nearest the image centre, so it holds
+  // about half the minimum number of inliers.
+  std::vector<size_t> order(own_points.numPoints());
+  std::iota(order.begin(), order.end(), size_t{0});
+  const Eigen::Vector2d centre(320.0, 240.0);
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return (own_points.pixel[a] - centre).norm() < (own_points.pixel[b] - centre).norm();
+  });
+  cv::Rect region;
+  for (size_t i = 0; i < 12 && i < order.size(); ++i) {
+    const Eigen::Vector2d& p = own_points.pixel[order[i]];
+    const cv::Rect r(static_cast<int>(p.x()) - 3, static_cast<int>(p.y()) - 3, 7, 7);
+    region = i == 0 ? r : (region | r);
+  }
+  const VisualSubmap patch = copiedFeatures(own, {80.0}, world.camera().fx, region);
+  for (size_t i = 0; i < patch.keypoints.size(); ++i) {
+    other.keypoints.push_back(patch.keypoints[i]);
+    other.descriptors.push_back(patch.descriptors[i]);
+    other.normalized.push_back(patch.normalized[i]);
+  }
+  MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+  const uint32_t s = map.addSession(0, true);
+  map.addNode(0.0, s, T_w_other, T_w_other.translation(), 0.0, other, true);
+  LoopQuery q;
+  q.node = 0;
+  q.t = 10.0;
+  q.T_odom_b = T_w_b;
+  q.bow = own.bow;
+  q.points = own_points;
+
+  LoopDetectorOptions o = testLoopOptions();
+  o.covisibility_neighbours = 0;
+  const VerificationResult strict = LoopVerifier(o, world.camera()).verify(q, map, 0);
+  EXPECT_NE(strict.stage, LoopStage::kAccepted) << strict.num_inliers << " inliers";
+  o.pnp_min_inliers = 6;  // minimum lowered to what PnP needs
+  const VerificationResult loose = LoopVerifier(o, world.camera()).verify(q, map, 0);
+  EXPECT_EQ(loose.stage, LoopStage::kAccepted) << "the patch alone is accepted as a place: " << loose.num_matches
+                                               << " matches, " << loose.num_inliers << " inliers";
+  EXPECT_LT(loose.num_inliers, LoopDetectorOptions().pnp_min_inliers);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hierarchical search
+// ---------------------------------------------------------------------------------------------
+
+TEST(HierarchicalLoopDetector, MagneticStageRestrictsBowToClusteredSubmaps) {
+  test::TestWorld world(kWorldSeed);
+  // Two passes far apart: A near the coil (y = 0), C 30 m away (y = 30).
+  PassMap pass(world, DescriptorType::kOrb, 0.0, 0.0, 7);
+  const uint32_t session_c = pass.map.addSession(5, false);
+  std::vector<Eigen::Isometry3d> poses_c;
+  for (int i = 0; i < 7; ++i) {
+    const Eigen::Isometry3d T_w_b = bodyPose(0.4 * i, 30.0, 2.5, 0.0);
+    poses_c.push_back(T_w_b);
+    const KeyframeData kf = world.keyframe(20.0 + i, 5, T_w_b, T_w_b);
+    pass.map.addNode(kf.t, session_c, T_w_b, T_w_b.translation(), 0.0, pass.describe(kf), true);
+  }
+  const Eigen::Vector3d s_a(2.0e-6, -1.0e-6, 3.0e-6);
+  const Eigen::Vector3d s_c(1.0e-8, 2.0e-8, 4.0e-8);
+  MagneticSubmapDraft da;
+  da.tied_node = 3;
+  da.signature_enu = s_a;
+  da.radius_m = 1.0;
+  pass.map.addMagneticSubmap(da);
+  MagneticSubmapDraft dc;
+  dc.tied_node = 10;
+  dc.signature_enu = s_c;
+  dc.radius_m = 1.0;
+  pass.map.addMagneticSubmap(dc);
+
+  // The query revisits C (turned by 150 deg) but reports A's signature: magnetism says "near A".
+  const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.5, 30.1), 2.6, 150.0);
+  LoopQuery q = pass.addQuery(world.keyframe(100.0, 9, T_w_bq, T_w_bq), T_w_bq);
+  q.signature_enu = s_a * 1.05;
+  const MagneticSubmapOptions mo;
+  HierarchicalLoopDetector full(testLoopOptions(), mo, ModeSettings::forMode(LoopClosingMode::kFull), world.camera());
+  const DetectionResult r = full.detect(q, pass.map);
+  EXPECT_TRUE(r.magnetic_stage_used);
+  ASSERT_EQ(r.magnetic_candidates.size(), 1u);
+  EXPECT_EQ(r.magnetic_candidates[0].first, 0u);
+  ASSERT_FALSE(r.bow_pool.empty());
+  for (PoseGraphNodeId n : r.bow_pool) {
+    EXPECT_LT(n, 7u) << "BoW scored keyframe " << n << " outside the magnetic candidate's cluster";
+    EXPECT_LE((pass.map.node(n).pose.p_w_b - pass.map.node(3).pose.p_w_b).head<2>().norm(), 1.0 + mo.cluster_margin_m);
+  }
+  EXPECT_FALSE(r.accepted);
+
+  // Without the magnetic stage (no_alter) the same query finds its place in C.
+  HierarchicalLoopDetector no_alter(testLoopOptions(), mo, ModeSettings::forMode(LoopClosingMode::kNoAlter),
+                                    world.camera());
+  const DetectionResult r2 = no_alter.detect(q, pass.map);
+  EXPECT_FALSE(r2.magnetic_stage_used);
+  ASSERT_TRUE(r2.accepted);
+  EXPECT_GE(r2.accepted->match_node, 7u);
+  EXPECT_LT(r2.accepted->match_node, 14u);
+  EXPECT_TRUE(std::isnan(r2.accepted->mag_distance));
+  EXPECT_GT(r2.accepted->bow_score, 0.0);
+
+  // With C's signature the full hierarchy finds it too, and the attempt carries the magnetic distance.
+  q.signature_enu = s_c;
+  const DetectionResult r3 = full.detect(q, pass.map);
+  ASSERT_TRUE(r3.accepted);
+  EXPECT_GE(r3.accepted->match_node, 7u);
+  EXPECT_NEAR(r3.accepted->mag_distance, 0.0, 1e-12);
+  const Eigen::Isometry3d gt = pass.map.worldPose(r3.accepted->match_node).inverse() * T_w_bq;
+  expectPoseNear(r3.accepted->T_match_query, gt, 0.1, 1.0);
+
+  // A signature far from every submap: rejected at the magnetic stage, one record.
+  q.signature_enu = Eigen::Vector3d(-5e-6, 5e-6, 1e-6);
+  const DetectionResult r4 = full.detect(q, pass.map);
+  EXPECT_FALSE(r4.accepted);
+  ASSERT_EQ(r4.attempts.size(), 1u);
+  EXPECT_EQ(r4.attempts[0].stage, LoopStage::kMagnetic);
+  EXPECT_TRUE(r4.bow_pool.empty());
+}
+
+TEST(HierarchicalLoopDetector, KeyframesWithoutMagneticCoverageStayInTheSearch) {
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kOrb, 0.0, 0.0, 7);
+  const uint32_t session_c = pass.map.addSession(5, false);
+  for (int i = 0; i < 7; ++i) {
+    const Eigen::Isometry3d T_w_b = bodyPose(0.4 * i, 30.0, 2.5, 0.0);
+    const KeyframeData kf = world.keyframe(20.0 + i, 5, T_w_b, T_w_b);
+    // recorded while the magnetometer was off
+    pass.map.addNode(kf.t, session_c, T_w_b, T_w_b.translation(), 0.0, pass.describe(kf), false);
+  }
+  MagneticSubmapDraft da;
+  da.tied_node = 3;
+  da.signature_enu = Eigen::Vector3d(2.0e-6, -1.0e-6, 3.0e-6);
+  da.radius_m = 1.0;
+  pass.map.addMagneticSubmap(da);
+  const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.4, 29.9), 2.6, -100.0);
+  LoopQuery q = pass.addQuery(world.keyframe(100.0, 9, T_w_bq, T_w_bq), T_w_bq);
+  q.signature_enu = da.signature_enu;
+  HierarchicalLoopDetector full(testLoopOptions(), MagneticSubmapOptions(), ModeSettings::forMode(LoopClosingMode::kFull),
+                                world.camera());
+  const DetectionResult r = full.detect(q, pass.map);
+  ASSERT_TRUE(r.accepted);
+  EXPECT_GE(r.accepted->match_node, 7u);
+  EXPECT_TRUE(std::isnan(r.accepted->mag_distance));
+}
+
+TEST(PointMatching, RatioOneDisablesTheTestAndDuplicatesAreIgnored) {
+  // Hand-made descriptors: point 0 has a unique match; point 1 two equal ones at different
+  // places; point 2 two equal ones at the same place (one corner on two levels).
+  DescribedPoints p;
+  BinaryDescriptor a, b, c;
+  for (int i = 0; i < 60; ++i) a.setBit(i);
+  for (int i = 100; i < 160; ++i) b.setBit(i);
+  for (int i = 200; i < 256; ++i) c.setBit(i);
+  for (const BinaryDescriptor& d : {a, b, c}) {
+    p.p_odom.emplace_back(0, 0, 0);
+    p.pixel.emplace_back(0, 0);
+    p.feature_id.push_back(p.feature_id.size());
+    p.point_of_descriptor.push_back(static_cast<uint32_t>(p.descriptors.size()));
+    p.level_of_descriptor.push_back(0);
+    p.descriptors.push_back(d);
+  }
+  VisualSubmap s;
+  auto add = [&](const BinaryDescriptor& d, float x, float y) {
+    s.keypoints.emplace_back(cv::Point2f(x, y), 31.0f);
+    s.descriptors.push_back(d);
+    s.normalized.emplace_back(0, 0);
+  };
+  add(a, 10, 10);
+  add(b, 100, 100);
+  add(b, 300, 100);
+  add(c, 200, 200);
+  add(c, 201, 200);
+  const std::vector<PointMatch> strict = matchPointsToKeypoints(p, s, 0.8, 80, 4.0);
+  ASSERT_EQ(strict.size(), 2u);
+  EXPECT_EQ(strict[0].point, 0u);
+  EXPECT_EQ(strict[1].point, 2u);
+  const std::vector<PointMatch> off = matchPointsToKeypoints(p, s, 1.0, 80, 4.0);
+  EXPECT_EQ(off.size(), 3u);
+}
+
+}  // namespace
+}  // namespace vims

@@ -1,0 +1,473 @@
+/// PoseGraphManager end to end on rendered runs over one synthetic seabed with a coil: loop
+/// closing with drift correction, map save/load, relocalisation of a second run, modes,
+/// asynchronous mode, magnetometer dropout and bad keyframes.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "loop_test_world.h"
+#include "vims_pose_graph/loop_csv.h"
+#include "vims_pose_graph/pose_graph_manager.h"
+
+namespace vims {
+namespace {
+
+using test::bodyPose;
+using test::kDeg;
+
+constexpr uint64_t kWorldSeed = 777;
+
+sim::CoilDipole testCoil() {
+  sim::CoilDipole coil;
+  coil.position_w = Eigen::Vector3d(3.0, 0.3, 0.0);
+  return coil;
+}
+
+/// The geomagnetic field of the site in ENU (declination 0).
+const Eigen::Vector3d kGeomagneticEnu(0.0, 2.2e-5, -4.1e-5);
+
+/// A run: the true body poses, the VIO's keyframes (drifting, in its own frame), and the
+/// magnetometer outputs along the way.
+struct SimRun {
+  std::vector<Eigen::Isometry3d> T_w_b;
+  std::vector<KeyframeData> keyframes;
+  std::vector<SignatureWindow> signatures;
+  std::vector<std::pair<double, Eigen::Vector3d>> geomagnetic;  ///< (t, field in body)
+};
+
+/// Lawnmower pass A: east along y = 0, turn, west along y = 0.6 (heading 180: the revisits see
+/// the seabed rotated by 180 deg).
+std::vector<Eigen::Isometry3d> trajectoryA() {
+  std::vector<Eigen::Isometry3d> p;
+  for (int i = 0; i < 16; ++i) p.push_back(bodyPose(0.4 * i, 0.0, 2.5 + 0.1 * std::sin(0.5 * i), 0.0, 1.0, -0.5));
+  p.push_back(bodyPose(6.2, 0.25, 2.5, 90.0));
+  for (int i = 0; i < 16; ++i) p.push_back(bodyPose(5.8 - 0.4 * i, 0.6, 2.6 + 0.1 * std::cos(0.4 * i), 180.0, -0.8, 1.0));
+  return p;
+}
+
+/// SimRun B over the same area on another path: diagonally north-east, then back west.
+std::vector<Eigen::Isometry3d> trajectoryB() {
+  std::vector<Eigen::Isometry3d> p;
+  for (int i = 0; i < 13; ++i) p.push_back(bodyPose(0.5 + 0.38 * i, -0.4 + 0.13 * i, 2.7, 19.0, 0.5, 0.5));
+  for (int i = 0; i < 12; ++i) p.push_back(bodyPose(5.2 - 0.4 * i, 1.0 - 0.05 * i, 2.6, 185.0, -0.5, 0.0));
+  return p;
+}
+
+/// Builds a run: keyframes `dt` apart; the VIO frame is `T_odom_w` and the VIO drifts by
+/// yaw_drift_deg_per_m and a scale error; signatures every 0.4 s and geomagnetic samples every
+/// 0.1 s from the true poses (interpolated).
+SimRun makeRun(const test::TestWorld& world, const std::vector<Eigen::Isometry3d>& poses, double dt,
+            const Eigen::Isometry3d& T_odom_w, double yaw_drift_deg_per_m, double scale, double t0 = 100.0) {
+  SimRun run;
+  run.T_w_b = poses;
+  Eigen::Isometry3d T_odom_b = T_odom_w * poses.front();
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (i > 0) {
+      // The VIO integrates the true relative motion with a scale error and a yaw drift.
+      Eigen::Isometry3d rel = poses[i - 1].inverse() * poses[i];
+      const double d = rel.translation().norm();
+      rel.translation() *= scale;
+      rel.linear() = rotationZ(yaw_drift_deg_per_m * kDeg * d) * rel.linear();
+      T_odom_b = T_odom_b * rel;
+    }
+    run.keyframes.push_back(world.keyframe(t0 + dt * i, 0, poses[i], T_odom_b));
+  }
+  const sim::CoilDipole coil = testCoil();
+  const double t_end = t0 + dt * (poses.size() - 1);
+  auto poseAt = [&](double t) {
+    const double f = std::clamp((t - t0) / dt, 0.0, static_cast<double>(poses.size() - 1));
+    const size_t i = std::min(static_cast<size_t>(f), poses.size() - 2);
+    const double a = f - i;
+    Eigen::Isometry3d T = poses[a < 0.5 ? i : i + 1];
+    T.translation() = (1 - a) * poses[i].translation() + a * poses[i + 1].translation();
+    return T;
+  };
+  for (double t = t0; t <= t_end + 1e-9; t += 0.4) run.signatures.push_back(test::signatureAt(t, coil, poseAt(t).translation()));
+  for (double t = t0; t <= t_end + 1e-9; t += 0.1)
+    run.geomagnetic.emplace_back(t, poseAt(t).linear().transpose() * kGeomagneticEnu);
+  return run;
+}
+
+/// Runs rendered once per test binary.
+const SimRun& runA() {
+  static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryA(), 1.0,
+                                 test::yawTransform(35.0, Eigen::Vector3d(2.0, -1.0, 0.0)), 0.6, 1.02);
+  return run;
+}
+const SimRun& runB() {
+  static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryB(), 1.0,
+                                 test::yawTransform(-70.0, Eigen::Vector3d(10.0, 5.0, 0.2)), -0.4, 0.99, 5000.0);
+  return run;
+}
+
+PoseGraphManagerOptions testOptions(LoopClosingMode mode = LoopClosingMode::kFull) {
+  PoseGraphManagerOptions o;
+  o.mode = mode;
+  o.synchronous = true;
+  o.optimise_every_n_keyframes = 5;
+  // Short test runs: keyframes 1 s apart.
+  o.loop.exclude_recent_keyframes = 10;
+  o.loop.exclude_recent_s = 8.0;
+  return o;
+}
+
+std::shared_ptr<const BinaryVocabulary> vocabularyFor(const PoseGraphManagerOptions& o) {
+  return test::vocabulary(o.modeSettings().descriptor == DescriptorType::kOrb ? "orb_k8l4.vocab" : "brief_k8l4.vocab");
+}
+
+struct FeedOptions {
+  double mag_off_from = 1e300;  ///< no signatures at or after this time
+  bool geomagnetic = true;
+};
+
+/// Feeds a run in time order (keyframes, signatures and geomagnetic samples interleaved).
+void feed(PoseGraphManager& m, const SimRun& run, const FeedOptions& f = FeedOptions()) {
+  size_t s = 0, g = 0;
+  for (const KeyframeData& kf : run.keyframes) {
+    for (; s < run.signatures.size() && run.signatures[s].t <= kf.t; ++s)
+      if (run.signatures[s].t < f.mag_off_from) m.feedSignature(run.signatures[s]);
+    for (; g < run.geomagnetic.size() && run.geomagnetic[g].first <= kf.t; ++g)
+      if (f.geomagnetic) m.feedGeomagnetic(run.geomagnetic[g].first, run.geomagnetic[g].second);
+    m.feedKeyframe(kf);
+  }
+  for (; s < run.signatures.size(); ++s)
+    if (run.signatures[s].t < f.mag_off_from) m.feedSignature(run.signatures[s]);
+  for (; g < run.geomagnetic.size(); ++g)
+    if (f.geomagnetic) m.feedGeomagnetic(run.geomagnetic[g].first, run.geomagnetic[g].second);
+  m.finish();
+}
+
+/// Truth of a keyframe time.
+Eigen::Isometry3d truthAt(const SimRun& run, double t) {
+  for (size_t i = 0; i < run.keyframes.size(); ++i)
+    if (std::abs(run.keyframes[i].t - t) < 1e-6) return run.T_w_b[i];
+  ADD_FAILURE() << "no keyframe at t=" << t;
+  return Eigen::Isometry3d::Identity();
+}
+
+/// Max position error of a run's keyframe poses expressed in a frame G, given T_G_w.
+double maxPositionError(const std::vector<KeyframePose>& poses, const SimRun& run, const Eigen::Isometry3d& T_G_w) {
+  double worst = 0.0;
+  for (const KeyframePose& k : poses)
+    worst = std::max(worst, (k.T_w_b.translation() - (T_G_w * truthAt(run, k.t)).translation()).norm());
+  return worst;
+}
+
+/// The frame of a run's global poses relative to the world, from its first keyframe.
+Eigen::Isometry3d frameOf(const std::vector<KeyframePose>& poses, const SimRun& run) {
+  return poses.front().T_w_b * truthAt(run, poses.front().t).inverse();
+}
+
+/// Accepted loops agree with the truth in what the 4-DoF graph uses: the relative position and
+/// the relative yaw (the PnP tilt is dropped; it is checked in 6-DoF in test_loop_verification).
+void expectAcceptedLoopsCorrect(const std::vector<LoopAttempt>& attempts, const SimRun& query_run, const SimRun& match_run) {
+  for (const LoopAttempt& a : attempts) {
+    if (!a.accepted) continue;
+    const Eigen::Isometry3d gt = truthAt(match_run, a.t_match).inverse() * truthAt(query_run, a.t_query);
+    const Eigen::Matrix3d dR = a.T_match_query.linear().transpose() * gt.linear();
+    EXPECT_LT((a.T_match_query.translation() - gt.translation()).norm(), 0.1) << "loop " << a.t_query << " -> " << a.t_match;
+    EXPECT_LT(std::abs(yawPitchRollFromRotation(dR).yaw) / kDeg, 1.0) << "loop " << a.t_query << " -> " << a.t_match;
+    EXPECT_LT(Eigen::AngleAxisd(dR).angle() / kDeg, 3.0) << "loop " << a.t_query << " -> " << a.t_match;
+  }
+}
+
+std::string tempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("vims_pgm_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(PoseGraphManager, ClosesLoopsAndCorrectsDrift) {
+  const SimRun& run = runA();
+  const PoseGraphManagerOptions o = testOptions();
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o));
+  feed(m, run);
+  const PoseGraphManagerStats st = m.stats();
+  EXPECT_EQ(st.keyframes, run.keyframes.size());
+  EXPECT_EQ(st.empty_keyframes, 0u);
+  EXPECT_EQ(st.loop_queries, run.keyframes.size());
+  EXPECT_GE(st.loops_accepted, 3u);
+  EXPECT_GT(st.magnetic_submaps, 5u);
+  EXPECT_EQ(st.yaw_factors, run.keyframes.size());
+  const std::vector<LoopAttempt> attempts = m.loopAttempts();
+  expectAcceptedLoopsCorrect(attempts, run, run);
+  for (const LoopAttempt& a : attempts) EXPECT_FALSE(std::isnan(a.mag_distance) && a.stage != LoopStage::kBow);
+
+  // Global poses: the yaw factors make the heading absolute (ENU); the position is anchored at
+  // the first keyframe. The VIO's drift is corrected.
+  const std::vector<KeyframePose> poses = m.keyframePoses();
+  ASSERT_EQ(poses.size(), run.keyframes.size());
+  const Eigen::Isometry3d T_G_w = frameOf(poses, run);
+  EXPECT_LT(std::abs(yawPitchRollFromRotation(T_G_w.linear()).yaw) / kDeg, 2.0);
+  const double global_error = maxPositionError(poses, run, T_G_w);
+  std::vector<KeyframePose> vio = poses;
+  for (size_t i = 0; i < vio.size(); ++i) vio[i].T_w_b = run.keyframes[i].T_odom_b;
+  const double vio_error = maxPositionError(vio, run, frameOf(vio, run));
+  // (Measured: 0.15 m against the VIO's 0.45 m; 8 loops accepted, all correct.)
+  EXPECT_LT(global_error, 0.25) << "VIO: " << vio_error;
+  EXPECT_LT(global_error, 0.5 * vio_error);
+
+  // map -> odom is the drift correction at the latest keyframe.
+  const Eigen::Isometry3d corrected = m.correctedPose(run.keyframes.back().T_odom_b);
+  EXPECT_LT((corrected.translation() - poses.back().T_w_b.translation()).norm(), 1e-6);
+  const std::vector<LoopEdgeInfo> edges = m.loopEdges();
+  EXPECT_EQ(edges.size(), st.loops_accepted);
+
+  // Map contents for rviz: every magnetic submap sits on its tied keyframe and clusters it.
+  const MapContents c = m.mapContents();
+  EXPECT_EQ(c.visual.size(), run.keyframes.size());
+  ASSERT_EQ(c.magnetic.size(), st.magnetic_submaps);
+  for (const MagneticSubmapMarker& s : c.magnetic) {
+    EXPECT_LT((s.p_w - poses[s.tied_node].T_w_b.translation()).norm(), 1e-9);
+    EXPECT_GT(s.signature_enu.norm(), 1e-9);
+    EXPECT_NE(std::find(s.clustered.begin(), s.clustered.end(), s.tied_node), s.clustered.end());
+  }
+
+  // loops.csv: one row per attempt, streamed with takeNewLoopAttempts.
+  const std::string csv = tempPath("loops.csv");
+  {
+    LoopCsvWriter w(csv);
+    for (const LoopAttempt& a : m.takeNewLoopAttempts()) w.write(a);
+  }
+  EXPECT_TRUE(m.takeNewLoopAttempts().empty());
+  std::ifstream in(csv);
+  size_t lines = 0;
+  for (std::string line; std::getline(in, line);) ++lines;
+  EXPECT_EQ(lines, attempts.size() + 1);
+  std::remove(csv.c_str());
+}
+
+TEST(PoseGraphManager, SaveLoadRoundTripGivesTheSameGraph) {
+  const SimRun& run = runA();
+  const PoseGraphManagerOptions o = testOptions();
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o));
+  feed(m, run);
+  const std::string path = tempPath("a.vmap");
+  m.saveMap(path);
+  PoseGraphManager loaded(o, test::testSequence(), vocabularyFor(o));
+  loaded.loadMap(path);
+  std::vector<uint8_t> original, reloaded;
+  m.inspectMap([&](const MultiScaleMap& map) { original = map.serialize("v"); });
+  loaded.inspectMap([&](const MultiScaleMap& map) {
+    reloaded = map.serialize("v");
+    ASSERT_EQ(map.numNodes(), run.keyframes.size());
+    for (const MapSession& s : map.sessions()) EXPECT_TRUE(s.loaded);
+  });
+  EXPECT_EQ(original, reloaded);  // poses, edges, yaw factors, both kinds of submaps, BoW vectors
+  EXPECT_EQ(loaded.stats().loaded_keyframes, run.keyframes.size());
+  EXPECT_EQ(loaded.keyframePoses(true).size(), run.keyframes.size());
+  EXPECT_TRUE(loaded.keyframePoses(false).empty());
+  const auto a = m.keyframePoses();
+  const auto b = loaded.keyframePoses(true);
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(a[i].T_w_b.isApprox(b[i].T_w_b, 1e-12));
+  // Loading after keyframes (or twice) is refused.
+  EXPECT_THROW(loaded.loadMap(path), std::logic_error);
+  std::remove(path.c_str());
+}
+
+TEST(PoseGraphManager, RelocalisesASecondRunIntoTheFirstRunsFrame) {
+  const SimRun& a = runA();
+  const SimRun& b = runB();
+  const PoseGraphManagerOptions o = testOptions();
+  const std::string path = tempPath("teach.vmap");
+  Eigen::Isometry3d T_map_w;
+  {
+    PoseGraphManager teach(o, test::testSequence(), vocabularyFor(o));
+    feed(teach, a);
+    const auto poses = teach.keyframePoses();
+    T_map_w = frameOf(poses, a);
+    teach.saveMap(path);
+  }
+  test::LogRecorder log;
+  PoseGraphManager repeat(o, test::testSequence(), vocabularyFor(o), log.logger());
+  repeat.loadMap(path);
+  feed(repeat, b);
+  const PoseGraphManagerStats st = repeat.stats();
+  ASSERT_TRUE(st.relocalised);
+  EXPECT_TRUE(log.contains("relocalised into the loaded map"));
+  EXPECT_GE(st.loops_accepted, 1u);
+  // Loops into the loaded map are verified against run A's truth.
+  for (const LoopAttempt& l : repeat.loopAttempts()) {
+    if (!l.accepted) continue;
+    bool match_in_a = false;
+    for (const KeyframeData& kf : a.keyframes) match_in_a |= std::abs(kf.t - l.t_match) < 1e-6;
+    if (!match_in_a) continue;
+    const Eigen::Isometry3d gt = truthAt(a, l.t_match).inverse() * truthAt(b, l.t_query);
+    EXPECT_LT((l.T_match_query.translation() - gt.translation()).norm(), 0.1);
+  }
+  // SimRun B's trajectory is expressed in run A's map frame.
+  const std::vector<KeyframePose> poses = repeat.keyframePoses();
+  ASSERT_EQ(poses.size(), b.keyframes.size());
+  EXPECT_LT(maxPositionError(poses, b, T_map_w), 0.2);
+  // The loaded map did not move (it is the reference).
+  const auto map_poses = repeat.keyframePoses(true);
+  double map_shift = 0.0;
+  for (const KeyframePose& k : map_poses)
+    if (k.loaded) map_shift = std::max(map_shift, (k.T_w_b.translation() - (T_map_w * truthAt(a, k.t)).translation()).norm());
+  EXPECT_LT(map_shift, 0.2);
+  std::remove(path.c_str());
+}
+
+TEST(PoseGraphManager, MagnetometerOffForAMinuteLoopsFromVisionAloneWithAWarning) {
+  // SimRun A slowed down (keyframes 2 s apart); the magnetometer stops after 6 s, 62 s before the end.
+  SimRun run = runA();
+  for (size_t i = 0; i < run.keyframes.size(); ++i) run.keyframes[i].t = 100.0 + 2.0 * i;
+  const double end = run.keyframes.back().t;
+  for (auto& w : run.signatures) w.t = 100.0 + 2.0 * (w.t - 100.0);
+  for (auto& g : run.geomagnetic) g.first = 100.0 + 2.0 * (g.first - 100.0);
+  ASSERT_GE(end - 104.0, 60.0);
+  PoseGraphManagerOptions o = testOptions();
+  o.loop.exclude_recent_s = 16.0;
+  test::LogRecorder log;
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o), log.logger());
+  FeedOptions f;
+  f.mag_off_from = 104.0;
+  feed(m, run, f);
+  EXPECT_GE(m.stats().loops_accepted, 1u);
+  EXPECT_TRUE(log.contains("magnetometer silent")) << "no warning";
+  const std::optional<DetectionResult> last = m.lastDetection();
+  ASSERT_TRUE(last);
+  EXPECT_FALSE(last->magnetic_stage_used);
+  for (const LoopAttempt& a : m.loopAttempts())
+    if (a.accepted) {
+      EXPECT_TRUE(std::isnan(a.mag_distance));  // vision alone
+    }
+  m.inspectMap([&](const MultiScaleMap& map) {
+    EXPECT_TRUE(map.node(0).magnetic_coverage);
+    EXPECT_FALSE(map.node(map.numNodes() - 1).magnetic_coverage);
+  });
+}
+
+TEST(PoseGraphManager, EmptyBlackAndInvalidKeyframesHaveDefinedBehaviour) {
+  const SimRun& run = runA();
+  const PoseGraphManagerOptions o = testOptions();
+  test::LogRecorder log;
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o), log.logger());
+  for (size_t i = 0; i < 4; ++i) m.feedKeyframe(run.keyframes[i]);
+  KeyframeData empty = run.keyframes[4];
+  empty.image = cv::Mat();  // no image at all, no features
+  empty.features.clear();
+  m.feedKeyframe(empty);
+  KeyframeData black = run.keyframes[5];
+  // Lamp failure: black frame, features kept. (A new buffer: assigning cv::Mat::zeros() would
+  // write into the image shared with the cached run.)
+  black.image = cv::Mat(480, 640, CV_8UC1, cv::Scalar(0));
+  m.feedKeyframe(black);
+  KeyframeData nan = run.keyframes[6];
+  nan.T_odom_b.translation().x() = std::nan("");
+  m.feedKeyframe(nan);
+  KeyframeData back = run.keyframes[2];  // time goes backwards
+  m.feedKeyframe(back);
+  KeyframeData colour = run.keyframes[6];  // bgr8 is accepted
+  cv::cvtColor(run.keyframes[6].image, colour.image, cv::COLOR_GRAY2BGR);
+  m.feedKeyframe(colour);
+  for (size_t i = 7; i < 12; ++i) m.feedKeyframe(run.keyframes[i]);
+  m.finish();
+  const PoseGraphManagerStats st = m.stats();
+  EXPECT_EQ(st.keyframes, 12u);
+  EXPECT_EQ(st.empty_keyframes, 2u);
+  EXPECT_EQ(st.keyframes_rejected, 2u);
+  EXPECT_TRUE(log.contains("no usable image corners"));
+  EXPECT_TRUE(log.contains("not after the previous keyframe"));
+  EXPECT_TRUE(log.contains("invalid pose"));
+  const auto poses = m.keyframePoses();
+  ASSERT_EQ(poses.size(), 12u);
+  for (const KeyframePose& k : poses) EXPECT_TRUE(k.T_w_b.matrix().allFinite());
+  m.inspectMap([&](const MultiScaleMap& map) {
+    EXPECT_TRUE(map.node(4).visual.empty());
+    EXPECT_TRUE(map.node(5).visual.empty());
+    EXPECT_FALSE(map.node(6).visual.empty());
+    EXPECT_LT(map.node(4).bow_image, 0);
+    // The empty keyframes are still chained by sequential edges.
+    EXPECT_EQ(map.sequentialEdges().size(), 11u);
+  });
+}
+
+TEST(PoseGraphManager, VioResetStartsANewChainLinkedByAWeakPrior) {
+  const SimRun& run = runA();
+  const PoseGraphManagerOptions o = testOptions();
+  test::LogRecorder log;
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o), log.logger());
+  // After keyframe 8 the VIO re-initialises: session 1, a new odom frame.
+  const Eigen::Isometry3d T_new_old = test::yawTransform(50.0, Eigen::Vector3d(-3.0, 4.0, 0.0));
+  for (size_t i = 0; i < run.keyframes.size(); ++i) {
+    KeyframeData kf = run.keyframes[i];
+    if (i >= 9) {
+      kf.session = 1;
+      kf.T_odom_b = T_new_old * kf.T_odom_b;
+      for (KeyframeFeature& f : kf.features) f.p_odom = T_new_old * f.p_odom;
+    }
+    m.feedKeyframe(kf);
+  }
+  m.finish();
+  EXPECT_EQ(m.stats().sessions, 2u);
+  EXPECT_TRUE(log.contains("new chain"));
+  m.inspectMap([&](const MultiScaleMap& map) {
+    EXPECT_EQ(map.sessions().size(), 2u);
+    EXPECT_TRUE(map.sameComponent(0, static_cast<PoseGraphNodeId>(map.numNodes() - 1)));
+    EXPECT_EQ(map.sequentialEdges().size(), run.keyframes.size() - 1);  // 8 + 23 sequential + 1 link
+  });
+  // The second chain continues where the first ended (not at its own unrelated odom origin).
+  const auto poses = m.keyframePoses();
+  EXPECT_LT((poses[9].T_w_b.translation() - poses[8].T_w_b.translation()).norm(), 1.0);
+  EXPECT_EQ(poses[9].vio_session, 1u);
+}
+
+TEST(PoseGraphManager, ModesSelectTheirStagesOnTheSamePath) {
+  const SimRun& run = runA();
+  struct Expect {
+    LoopClosingMode mode;
+    bool magnetic;
+    bool yaw;
+    DescriptorType descriptor;
+  };
+  for (const Expect& e : {Expect{LoopClosingMode::kNoAlter, false, true, DescriptorType::kOrb},
+                          Expect{LoopClosingMode::kNoGeom, true, false, DescriptorType::kOrb},
+                          Expect{LoopClosingMode::kViSlam, false, false, DescriptorType::kBrief},
+                          Expect{LoopClosingMode::kNoOrb, true, true, DescriptorType::kBrief}}) {
+    SCOPED_TRACE(toString(e.mode));
+    const PoseGraphManagerOptions o = testOptions(e.mode);
+    PoseGraphManager m(o, test::testSequence(), vocabularyFor(o));
+    feed(m, run);
+    const PoseGraphManagerStats st = m.stats();
+    EXPECT_EQ(st.yaw_factors > 0, e.yaw);
+    EXPECT_EQ(st.magnetic_submaps > 0, e.magnetic);
+    ASSERT_TRUE(m.lastDetection());
+    EXPECT_EQ(m.lastDetection()->magnetic_stage_used, e.magnetic);
+    if (!e.magnetic) {
+      for (const LoopAttempt& a : m.loopAttempts()) EXPECT_TRUE(std::isnan(a.mag_distance));
+    }
+    m.inspectMap([&](const MultiScaleMap& map) { EXPECT_EQ(map.vocabulary()->descriptorType(), toString(e.descriptor)); });
+    expectAcceptedLoopsCorrect(m.loopAttempts(), run, run);
+    if (e.mode == LoopClosingMode::kNoAlter) {
+      EXPECT_GE(st.loops_accepted, 1u);
+    }
+  }
+  // A mode needs the vocabulary of its descriptor.
+  EXPECT_THROW(PoseGraphManager(testOptions(LoopClosingMode::kViSlam), test::testSequence(), test::vocabulary("orb_k8l4.vocab")),
+               std::invalid_argument);
+}
+
+TEST(PoseGraphManager, AsynchronousModeFindsTheSameLoops) {
+  const SimRun& run = runA();
+  PoseGraphManagerOptions o = testOptions();
+  PoseGraphManager sync(o, test::testSequence(), vocabularyFor(o));
+  feed(sync, run);
+  o.synchronous = false;
+  PoseGraphManager async(o, test::testSequence(), vocabularyFor(o));
+  feed(async, run);  // finish() waits for the worker threads
+  EXPECT_EQ(async.stats().keyframes, run.keyframes.size());
+  EXPECT_GE(async.stats().loops_accepted, 1u);
+  EXPECT_GE(async.stats().optimisations, 1u);
+  expectAcceptedLoopsCorrect(async.loopAttempts(), run, run);
+  const auto a = sync.keyframePoses();
+  const auto b = async.keyframePoses();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_LT(maxPositionError(b, run, frameOf(b, run)), 0.15);
+}
+
+}  // namespace
+}  // namespace vims
