@@ -14,10 +14,11 @@
 namespace {
 
 const char* kUsage =
-    "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--quiet]\n"
+    "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode full|no_sonar] [--quiet]\n"
     "  --sequence DIR   sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT        output directory (created); summary.yaml and the module outputs go here\n"
     "  --config FILE    system configuration (default: built-in defaults, see config/vims.yaml)\n"
+    "  --mode MODE      full (default) or no_sonar (visual-inertial odometry without the sonar factors)\n"
     "  --quiet          no progress output\n";
 
 int usageError(const std::string& message) {
@@ -45,6 +46,11 @@ int main(int argc, char** argv) {
       if (!value(&options.out_dir)) return usageError("--out needs a directory");
     } else if (arg == "--config") {
       if (!value(&options.config_path)) return usageError("--config needs a file");
+    } else if (arg == "--mode") {
+      if (!value(&options.mode)) return usageError("--mode needs full or no_sonar");
+      if (options.mode != "full" && options.mode != "no_sonar") {
+        return usageError("unknown mode '" + options.mode + "' (expected full or no_sonar)");
+      }
     } else if (arg == "--quiet") {
       options.show_progress = false;
     } else {

@@ -1,0 +1,159 @@
+#pragma once
+/// @file vio_estimator.h
+/// @brief The sliding-window visual-inertial-sonar odometry (the paper's "local VIO"): keyframe
+/// states, direct feature depths and the camera-IMU time offset optimised with Ceres over IMU,
+/// reprojection and sonar depth factors, with marginalisation of the oldest keyframe (or of the
+/// newest non-keyframe) into a prior. ROS-free, synchronous and deterministic: every output is a
+/// function of the fed data only. docs/estimator.md describes the algorithm and its rules for bad
+/// input.
+///
+/// Usage: feed IMU samples, filtered sonar ranges and tracked frames in (roughly) time order;
+/// frames are processed as soon as the IMU covers their time. After each feed call, drain
+/// takeFrameResults() and takeKeyframes().
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "vims_common/keyframe_data.h"
+#include "vims_common/log.h"
+#include "vims_common/sensor_data.h"
+#include "vims_common/sequence_config.h"
+#include "vims_estimator/estimator_options.h"
+#include "vims_estimator/imu_preintegration.h"
+#include "vims_estimator/marginalization.h"
+#include "vims_sonar/sonar_altitude_filter.h"
+#include "vims_tracking/feature_tracker.h"
+
+namespace vims {
+
+/// What the estimator did with a frame.
+enum class VioStatus {
+  kWaitingForImu,    ///< not enough IMU before the first frame to find gravity: frame skipped
+  kInitialized,      ///< this frame started a session (gravity-aligned first state)
+  kTracking,         ///< normal operation: window optimised
+  kNoVisualUpdate,   ///< blank/feature-less frame: state propagated by the IMU (and sonar) only
+  kReset,            ///< failure or bad input: the estimator reset, a new session starts next frame
+};
+const char* vioStatusName(VioStatus status);
+
+/// The estimator's output for one processed frame.
+struct VioFrameResult {
+  double t_stamp = 0.0;   ///< image header stamp as recorded [s]
+  double t_state = 0.0;   ///< t_stamp - td used for this frame (the state's time)
+  VioStatus status = VioStatus::kTracking;
+  std::uint32_t session = 0;
+  /// Body pose in the VIO frame at the recorded stamp t_stamp (the state at t_state moved to
+  /// t_stamp with the velocity and rate: a few ms of motion).
+  Eigen::Isometry3d T_odom_b_at_stamp = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  ///< body pose at t_state
+  Eigen::Vector3d v_odom_b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+  double td = 0.0;
+  bool keyframe = false;     ///< the previous frame was kept as a keyframe at this step
+  int features_in_window = 0;
+  int sonar_factors = 0;
+  double backend_ms = 0.0;   ///< wall time of this frame's optimisation and marginalisation
+};
+
+/// IMU-rate propagated state (for the node's high-rate odometry).
+struct VioImuState {
+  double t = 0.0;
+  std::uint32_t session = 0;
+  Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_odom_b = Eigen::Vector3d::Zero();
+};
+
+class VioEstimator {
+ public:
+  /// Throws std::invalid_argument for unusable calibration (e.g. IMU noise not > 0).
+  VioEstimator(const SequenceConfig& sequence, const EstimatorOptions& options,
+               LoggerPtr logger = Logger::nullLogger());
+  ~VioEstimator();
+
+  /// IMU sample (body frame). Non-finite samples are dropped with a warning; a stamp going
+  /// backwards resets the estimator; gaps longer than imu_max_gap_s reset it.
+  void feedImu(const ImuSample& sample);
+  /// Filtered sonar range: only accepted results with an estimate are used.
+  void feedSonar(const SonarFilterResult& result);
+  /// Tracked frame (the tracker runs before). `image` (optional) is kept for KeyframeData.
+  void feedFrame(const TrackedFrame& frame, const cv::Mat& image = cv::Mat());
+
+  /// Results of the frames processed since the last call, in order.
+  std::vector<VioFrameResult> takeFrameResults();
+  /// Keyframes confirmed since the last call (for the pose graph), in order.
+  std::vector<KeyframeData> takeKeyframes();
+  /// The latest state propagated with the IMU up to the newest sample (nullopt before init).
+  std::optional<VioImuState> imuPropagatedState() const;
+
+  std::uint32_t session() const { return session_; }
+  bool initialized() const { return !frames_.empty(); }
+  double td() const { return td_[0]; }
+  const EstimatorOptions& options() const { return options_; }
+  /// Drops the window and starts a new session at the next frame.
+  void reset(const std::string& why);
+
+ private:
+  struct Frame;
+  struct Feature;
+
+  void processPendingFrames();
+  void processFrame(const TrackedFrame& frame, const cv::Mat& image);
+  bool initializeFirstFrame(const TrackedFrame& frame, const cv::Mat& image, double t_state);
+  std::unique_ptr<Frame> makeFrame(const TrackedFrame& frame, const cv::Mat& image, double t_state);
+  void addObservations(Frame* frame, const TrackedFrame& tracked);
+  double parallaxPx(const Frame& a, const Frame& b, int* common) const;
+  std::optional<double> sonarRangeAt(double t) const;
+  void initializeFeatureDepths();
+  bool seabedDepth(const Feature& feature, double* lambda) const;
+  bool triangulate(const Feature& feature, double* lambda) const;
+  void optimize(VioFrameResult* result);
+  void removeOutliers();
+  bool detectFailure(const Eigen::Vector3d& p_before, std::string* why) const;
+  void marginalizeOldest();
+  void dropSecondNewest();
+  void reanchorFeaturesOf(const Frame* frame);
+  void removeFeatureObservationsOf(const Frame* frame);
+  void emitKeyframe(Frame& frame);
+  void pruneImu();
+  Eigen::Vector3d featureWorld(const Feature& feature) const;
+  static bool priorTouches(const MarginalizationPrior& prior, const Frame* frame);
+  Eigen::Isometry3d extrinsicCamera() const;
+
+  SequenceConfig sequence_;
+  EstimatorOptions options_;
+  LoggerPtr logger_;
+  ImuNoiseParams noise_;
+  Eigen::Vector3d g_l_;
+  double focal_ = 1.0;
+  double sonar_sigma_ = 0.05;
+
+  std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
+  std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results
+  std::deque<std::pair<TrackedFrame, cv::Mat>> pending_;
+
+  std::deque<std::unique_ptr<Frame>> frames_;  ///< the window, oldest first
+  std::map<std::uint64_t, Feature> features_;
+  double T_b_c_block_[7];
+  double td_[1];
+  /// Marginalisation priors on window states (usually one; a second one only lives until the
+  /// states it shares with no other prior leave the window).
+  std::vector<std::shared_ptr<const MarginalizationPrior>> priors_;
+  std::uint32_t session_ = 0;
+  bool session_started_ = false;
+  double last_good_tracking_t_ = 0.0;
+  double last_frame_stamp_ = -1e300;
+  double last_tracked_stamp_ = -1e300;  ///< stamp of the previous frame processed
+
+  std::vector<VioFrameResult> results_;
+  std::vector<KeyframeData> keyframes_;
+};
+
+}  // namespace vims

@@ -1,0 +1,76 @@
+// System test of the VIO wiring of vims_offline: runs the built binary on the simulated tank30
+// (fixture sim_tank30) in both modes and checks vio.tum, the summary keys and the --mode flag.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "vims_common/trajectory_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CommandResult runCommand(const std::string& command) {
+  CommandResult result;
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
+  if (!pipe) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe.get())) result.output += buffer.data();
+  const int status = pclose(pipe.release());
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string offlineBinary() { return std::string(VIMS_DEVEL_BIN_DIR) + "/vims_offline"; }
+
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string tank30() {
+  const char* dir = std::getenv("VIMS_TEST_DATA");
+  return dir ? std::string(dir) + "/tank30" : std::string();
+}
+
+}  // namespace
+
+TEST(OfflineVio, BothModesWriteVioTumAndLatency) {
+  const std::string seq = tank30();
+  if (seq.empty()) GTEST_SKIP() << "VIMS_TEST_DATA not set (run through ctest)";
+  for (const std::string mode : {"full", "no_sonar"}) {
+    const fs::path out = freshDir("offline_vio_" + mode);
+    const CommandResult r =
+        runCommand(offlineBinary() + " --quiet --mode " + mode + " --sequence " + seq + " --out " + out.string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto poses = vims::readTumFile((out / "vio.tum").string());
+    EXPECT_GT(poses.size(), 250u) << mode << ": a pose for (almost) every one of the 300 frames";
+    const YAML::Node summary = YAML::LoadFile((out / "summary.yaml").string());
+    EXPECT_EQ(summary["mode"].as<std::string>(), mode);
+    EXPECT_EQ(summary["vio"]["frames"].as<long>(), static_cast<long>(poses.size()));
+    EXPECT_EQ(summary["vio"]["resets"].as<int>(), 0);
+    for (const char* key : {"frontend_p50", "frontend_p99", "backend_p50", "backend_p99"}) {
+      EXPECT_GT(summary["latency_ms"][key].as<double>(), 0.0) << key;
+    }
+    EXPECT_LE(summary["latency_ms"]["backend_p50"].as<double>(), summary["latency_ms"]["backend_p99"].as<double>());
+  }
+}
+
+TEST(OfflineVio, UnknownModeIsAUsageError) {
+  const CommandResult r = runCommand(offlineBinary() + " --mode fast --sequence x --out " +
+                                     freshDir("offline_vio_badmode").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("unknown mode 'fast'"), std::string::npos) << r.output;
+}
