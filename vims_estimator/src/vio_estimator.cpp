@@ -1029,7 +1029,7 @@ void VioEstimator::emitKeyframe(Frame& frame) {
   for (const auto& [id, obs] : frame.obs) {
     auto it = features_.find(id);
     if (it == features_.end() || !it->second.has_depth) continue;
-    KeyframeFeature f;
+    KeyframeLandmark f;
     f.id = id;
     f.p_odom = featureWorld(it->second);
     f.pixel = obs.pixel;

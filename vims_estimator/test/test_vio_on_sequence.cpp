@@ -84,7 +84,7 @@ RunResult runVio(const std::string& dir, const vims::EstimatorOptions& options, 
     for (const vims::KeyframeData& kf : vio.takeKeyframes()) {
       ++run.keyframes;
       const Eigen::Isometry3d T_c_odom = (kf.T_odom_b * estimator_config.camera.T_b_c).inverse();
-      for (const vims::KeyframeFeature& f : kf.features) {
+      for (const vims::KeyframeLandmark& f : kf.features) {
         ++run.keyframe_features;
         const Eigen::Vector3d p_c = T_c_odom * f.p_odom;
         const double err = p_c.z() > 0 ? (p_c.head<2>() / p_c.z() - f.normalized).norm() * config.camera.fx : 1e9;

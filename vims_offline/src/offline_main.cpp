@@ -3,6 +3,7 @@
 
 #include <ros/time.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
@@ -14,12 +15,17 @@
 namespace {
 
 const char* kUsage =
-    "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode full|no_sonar] [--quiet]\n"
-    "  --sequence DIR   sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
-    "  --out OUT        output directory (created); summary.yaml and the module outputs go here\n"
-    "  --config FILE    system configuration (default: built-in defaults, see config/vims.yaml)\n"
-    "  --mode MODE      full (default) or no_sonar (visual-inertial odometry without the sonar factors)\n"
-    "  --quiet          no progress output\n";
+    "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode MODE] [--map-load FILE]\n"
+    "                    [--map-save FILE] [--package-root DIR] [--quiet]\n"
+    "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
+    "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
+    "  --config FILE       system configuration (default: built-in defaults, see config/vims.yaml)\n"
+    "  --mode MODE         full (default), vi_slam, no_sonar, no_alter, no_orb or no_geom: the paper's\n"
+    "                      ablation variants (docs/offline_outputs.md)\n"
+    "  --map-load FILE     relocalise into a map saved by an earlier run (teach and repeat)\n"
+    "  --map-save FILE     save the map at the end\n"
+    "  --package-root DIR  root for relative vocabulary paths (default: the source tree it was built from)\n"
+    "  --quiet             no progress output\n";
 
 int usageError(const std::string& message) {
   std::cerr << "vims_offline: " << message << "\n" << kUsage;
@@ -30,6 +36,7 @@ int usageError(const std::string& message) {
 
 int main(int argc, char** argv) {
   vims::OfflineOptions options;
+  options.package_root = VIMS_PACKAGE_ROOT;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&](std::string* target) {
@@ -47,10 +54,17 @@ int main(int argc, char** argv) {
     } else if (arg == "--config") {
       if (!value(&options.config_path)) return usageError("--config needs a file");
     } else if (arg == "--mode") {
-      if (!value(&options.mode)) return usageError("--mode needs full or no_sonar");
-      if (options.mode != "full" && options.mode != "no_sonar") {
-        return usageError("unknown mode '" + options.mode + "' (expected full or no_sonar)");
+      if (!value(&options.mode)) return usageError("--mode needs a mode name");
+      const auto& modes = vims::OfflineOptions::modes();
+      if (std::find(modes.begin(), modes.end(), options.mode) == modes.end()) {
+        return usageError("unknown mode '" + options.mode + "'");
       }
+    } else if (arg == "--map-load") {
+      if (!value(&options.map_load)) return usageError("--map-load needs a file");
+    } else if (arg == "--map-save") {
+      if (!value(&options.map_save)) return usageError("--map-save needs a file");
+    } else if (arg == "--package-root") {
+      if (!value(&options.package_root)) return usageError("--package-root needs a directory");
     } else if (arg == "--quiet") {
       options.show_progress = false;
     } else {

@@ -54,7 +54,8 @@ double percentile(std::vector<double> values, double q) {
 SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
   SystemConfig config;
   const ConfigReader root = path.empty() ? ConfigReader::fromString("{}", "built-in defaults") : ConfigReader::fromFile(path);
-  root.rejectUnknownKeys({"sonar", "magnetometer", "tracker", "estimator"});
+  root.rejectUnknownKeys({"sonar", "magnetometer", "tracker", "estimator", "pose_graph"});
+  config.pose_graph = PoseGraphManagerOptions::fromReader(root.childOrEmpty("pose_graph"));
   config.tracker = TrackerOptions::fromReader(root.childOrEmpty("tracker"));
   config.estimator = EstimatorOptions::fromReader(root.childOrEmpty("estimator"));
   config.sonar = SonarFilterOptions::fromReader(root.childOrEmpty("sonar"));
@@ -71,11 +72,15 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   sequence_ = SequenceConfig::load(paths_.yaml, &unknown);
   for (const auto& key : unknown) logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
   config_ = SystemConfig::load(options_.config_path, sequence_);
-  if (options_.mode == "no_sonar") {
-    config_.estimator.use_sonar = false;
-  } else if (options_.mode != "full") {
-    throw std::runtime_error("unknown mode '" + options_.mode + "' (expected full or no_sonar)");
+  const auto& modes = OfflineOptions::modes();
+  if (std::find(modes.begin(), modes.end(), options_.mode) == modes.end()) {
+    throw std::runtime_error("unknown mode '" + options_.mode + "'");
   }
+  // no_sonar is the estimator's ablation; the others select the pose graph's loop-closing mode.
+  config_.estimator.use_sonar = options_.mode != "no_sonar" && config_.estimator.use_sonar;
+  config_.pose_graph.mode = loopClosingModeFromString(options_.mode == "no_sonar" ? "full" : options_.mode);
+  // The offline runner must be deterministic: the pose graph works inline in the feed calls.
+  config_.pose_graph.synchronous = true;
   std::error_code ec;
   fs::create_directories(options_.out_dir, ec);
   if (ec || !fs::is_directory(options_.out_dir)) {
@@ -90,6 +95,16 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   tracker_ = std::make_unique<FeatureTracker>(sequence_.camera, config_.tracker, logger_);
   estimator_ = std::make_unique<VioEstimator>(sequence_, config_.estimator, logger_);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
+  pose_graph_ = std::make_unique<PoseGraphManager>(
+      config_.pose_graph, sequence_, PoseGraphManager::loadVocabulary(config_.pose_graph, options_.package_root),
+      logger_);
+  if (!options_.map_load.empty()) pose_graph_->loadMap(options_.map_load);
+  loops_csv_ = std::make_unique<LoopCsvWriter>((out / "loops.csv").string());
+}
+
+const std::vector<std::string>& OfflineOptions::modes() {
+  static const std::vector<std::string> kModes = {"full", "vi_slam", "no_sonar", "no_alter", "no_orb", "no_geom"};
+  return kModes;
 }
 
 OfflinePipeline::~OfflinePipeline() = default;
@@ -118,8 +133,15 @@ void OfflinePipeline::drainEstimator() {
     vio_tum_->write(r.t_stamp, r.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(r.T_odom_b_at_stamp.linear()));
     ++vio_frames_;
   }
-  // Keyframes go to the pose graph once it is wired in; counted for the summary meanwhile.
-  vio_keyframes_ += static_cast<long>(estimator_->takeKeyframes().size());
+  for (const KeyframeData& keyframe : estimator_->takeKeyframes()) {
+    pose_graph_->feedKeyframe(keyframe);
+    ++vio_keyframes_;
+  }
+  drainLoopAttempts();
+}
+
+void OfflinePipeline::drainLoopAttempts() {
+  for (const LoopAttempt& attempt : pose_graph_->takeNewLoopAttempts()) loops_csv_->write(attempt);
 }
 
 void OfflinePipeline::onSonar(const SonarRange& range) {
@@ -133,8 +155,14 @@ void OfflinePipeline::onSonar(const SonarRange& range) {
 
 void OfflinePipeline::onMag(const MagSample& sample) {
   signature_windows_.clear();
-  signature_extractor_->feedMag(sample, &signature_windows_, nullptr);
-  for (const auto& window : signature_windows_) signature_csv_->write(window);
+  geomagnetic_samples_.clear();
+  signature_extractor_->feedMag(sample, &signature_windows_, &geomagnetic_samples_);
+  for (const auto& window : signature_windows_) {
+    signature_csv_->write(window);
+    pose_graph_->feedSignature(window);
+  }
+  for (const auto& geomagnetic : geomagnetic_samples_) pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b);
+  if (!signature_windows_.empty()) drainLoopAttempts();
 }
 
 OfflineSummary OfflinePipeline::run() {
@@ -172,6 +200,19 @@ OfflineSummary OfflinePipeline::run() {
   sonar_csv_->flush();
   drainEstimator();
   vio_tum_->flush();
+  pose_graph_->finish();
+  drainLoopAttempts();
+  loops_csv_->flush();
+  {
+    // global.tum: the final optimised body pose of every keyframe of this run, world frame.
+    TumWriter global_tum((fs::path(options_.out_dir) / "global.tum").string());
+    for (const KeyframePose& pose : pose_graph_->keyframePoses()) {
+      global_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
+    }
+    global_tum.flush();
+  }
+  if (!options_.map_save.empty()) pose_graph_->saveMap(options_.map_save);
+  summary.pose_graph = pose_graph_->stats();
   summary.frontend_ms_p50 = percentile(frontend_ms_, 0.5);
   summary.frontend_ms_p99 = percentile(frontend_ms_, 0.99);
   summary.backend_ms_p50 = percentile(backend_ms_, 0.5);
@@ -212,6 +253,13 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "mode: " << options_.mode << "\n";
   out << "vio: {frames: " << s.vio_frames << ", keyframes: " << s.vio_keyframes << ", resets: " << s.vio_resets
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
+  const PoseGraphManagerStats& pg = s.pose_graph;
+  out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
+      << ", sessions: " << pg.sessions << ", loop_queries: " << pg.loop_queries
+      << ", loop_attempts: " << pg.loop_attempts << ", loops_accepted: " << pg.loops_accepted
+      << ", yaw_factors: " << pg.yaw_factors << ", magnetic_submaps: " << pg.magnetic_submaps
+      << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false")
+      << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99 << "}\n";
   out << "messages:\n";

@@ -20,6 +20,8 @@
 #include "vims_magnetometer/magnetometer_options.h"
 #include "vims_magnetometer/signature_csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
+#include "vims_pose_graph/loop_csv.h"
+#include "vims_pose_graph/pose_graph_manager.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
 #include "vims_sonar/sonar_filter_options.h"
@@ -35,9 +37,18 @@ struct OfflineOptions {
   std::string out_dir;
   std::string config_path;  ///< system configuration (config/vims.yaml); empty = built-in defaults
   bool show_progress = true;
-  /// "full" (default) or "no_sonar" (estimator.use_sonar forced to false: the paper's
-  /// visual-inertial ablation; the sonar filter still runs and writes sonar_filtered.csv).
+  /// The paper's ablation variants, all on the same code path (docs/offline_outputs.md):
+  /// "full" (default); "no_sonar" (estimator.use_sonar forced to false; the sonar filter still
+  /// runs and writes sonar_filtered.csv); "vi_slam", "no_alter", "no_orb", "no_geom" (the pose
+  /// graph's loop-closing modes, docs/pose_graph.md).
   std::string mode = "full";
+  std::string map_load;  ///< a saved map to relocalise into (teach and repeat); empty: none
+  std::string map_save;  ///< where to save the map at the end; empty: not saved
+  /// Root that relative vocabulary paths of the configuration are resolved against.
+  std::string package_root;
+
+  /// The modes --mode accepts.
+  static const std::vector<std::string>& modes();
 };
 
 /// The system configuration (config/vims.yaml): one section per module. Every section and key
@@ -47,6 +58,7 @@ struct SystemConfig {
   MagnetometerOptions magnetometer;
   TrackerOptions tracker;
   EstimatorOptions estimator;
+  PoseGraphManagerOptions pose_graph;
 
   /// Reads `path` (empty: defaults) and validates it against the sequence's sensors.
   static SystemConfig load(const std::string& path, const SequenceConfig& sequence);
@@ -69,6 +81,7 @@ struct OfflineSummary {
   long vio_resets = 0;
   std::uint32_t vio_sessions = 0;
   double vio_td_s = 0.0;      ///< final camera-IMU time offset estimate
+  PoseGraphManagerStats pose_graph;
 };
 
 class OfflinePipeline {
@@ -88,6 +101,7 @@ class OfflinePipeline {
   void onMag(const MagSample& sample);
   void writeSummary(const OfflineSummary& summary) const;
   void drainEstimator();
+  void drainLoopAttempts();
 
   OfflineOptions options_;
   LoggerPtr logger_;
@@ -111,6 +125,10 @@ class OfflinePipeline {
   long vio_keyframes_ = 0;
   long vio_resets_ = 0;
   std::vector<SignatureWindow> signature_windows_;
+  std::vector<GeomagneticSample> geomagnetic_samples_;
+  // Global pose graph with hierarchical loop closing, run synchronously (deterministic).
+  std::unique_ptr<PoseGraphManager> pose_graph_;
+  std::unique_ptr<LoopCsvWriter> loops_csv_;
 };
 
 }  // namespace vims

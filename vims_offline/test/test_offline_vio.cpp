@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 
@@ -65,6 +66,32 @@ TEST(OfflineVio, BothModesWriteVioTumAndLatency) {
       EXPECT_GT(summary["latency_ms"][key].as<double>(), 0.0) << key;
     }
     EXPECT_LE(summary["latency_ms"]["backend_p50"].as<double>(), summary["latency_ms"]["backend_p99"].as<double>());
+  }
+}
+
+// The pose graph's outputs: one global pose per keyframe, one loops.csv row per verification
+// attempt, for the modes that switch descriptors and stages (ORB and BRIEF vocabularies).
+TEST(OfflineVio, PoseGraphModesWriteGlobalTrajectoryAndLoopLog) {
+  const std::string seq = tank30();
+  if (seq.empty()) GTEST_SKIP() << "VIMS_TEST_DATA not set (run through ctest)";
+  for (const std::string mode : {"full", "vi_slam", "no_orb"}) {
+    const fs::path out = freshDir("offline_pg_" + mode);
+    const CommandResult r =
+        runCommand(offlineBinary() + " --quiet --mode " + mode + " --sequence " + seq + " --out " + out.string());
+    ASSERT_EQ(r.exit_code, 0) << mode << "\n" << r.output;
+    const YAML::Node summary = YAML::LoadFile((out / "summary.yaml").string());
+    const long keyframes = summary["vio"]["keyframes"].as<long>();
+    EXPECT_GT(keyframes, 10) << mode;
+    EXPECT_EQ(summary["pose_graph"]["keyframes"].as<long>(), keyframes) << mode;
+    const auto global = vims::readTumFile((out / "global.tum").string());
+    EXPECT_EQ(static_cast<long>(global.size()), keyframes) << mode;
+    std::ifstream loops(out / "loops.csv");
+    std::string header;
+    std::getline(loops, header);
+    EXPECT_EQ(header, "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage");
+    long rows = 0;
+    for (std::string line; std::getline(loops, line);) rows += line.empty() ? 0 : 1;
+    EXPECT_EQ(rows, summary["pose_graph"]["loop_attempts"].as<long>()) << mode;
   }
 }
 

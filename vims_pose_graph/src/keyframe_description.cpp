@@ -181,7 +181,7 @@ VisualSubmap KeyframeDescriber::describeImage(const cv::Mat& image, const Binary
   return submap;
 }
 
-VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std::vector<KeyframeFeature>& features,
+VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
                                                 const BinaryVocabulary* vocabulary, DescribedPoints* points) {
   VisualSubmap submap = describeImage(image, vocabulary);
   DescribedPoints described = describePoints(image, features);
@@ -203,7 +203,7 @@ VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std
   return submap;
 }
 
-DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const std::vector<KeyframeFeature>& features) {
+DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features) {
   DescribedPoints out;
   const cv::Mat mono = toMono8(image);
   if (mono.empty() || features.empty()) return out;
@@ -211,7 +211,7 @@ DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const st
   // Points usable at all: finite, and (as cv::ORB requires) away from the level-0 border.
   std::vector<size_t> usable;
   for (size_t i = 0; i < features.size(); ++i) {
-    const KeyframeFeature& f = features[i];
+    const KeyframeLandmark& f = features[i];
     if (!f.p_odom.allFinite() || !f.pixel.allFinite()) continue;
     if (f.pixel.x() < kOrbEdgeThreshold || f.pixel.y() < kOrbEdgeThreshold ||
         f.pixel.x() >= mono.cols - kOrbEdgeThreshold || f.pixel.y() >= mono.rows - kOrbEdgeThreshold)
@@ -229,7 +229,7 @@ DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const st
   std::vector<Owner> owners;
   std::vector<cv::KeyPoint> keypoints;
   for (size_t u = 0; u < usable.size(); ++u) {
-    const KeyframeFeature& f = features[usable[u]];
+    const KeyframeLandmark& f = features[usable[u]];
     out.feature_id.push_back(f.id);
     out.p_odom.push_back(f.p_odom);
     out.pixel.push_back(f.pixel);

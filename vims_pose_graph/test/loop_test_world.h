@@ -106,7 +106,7 @@ class TestWorld {
       if (ray_w.z() >= -1e-6) continue;
       const double s = -T_w_c.translation().z() / ray_w.z();
       const Eigen::Vector3d p_w = T_w_c.translation() + s * ray_w;
-      KeyframeFeature f;
+      KeyframeLandmark f;
       f.id = id++;
       f.p_odom = T_odom_w * p_w;
       f.pixel = pixel;

@@ -101,11 +101,11 @@ TEST(CornerReplication, ReplicatedKeypointMatchesOrbsOwnDescriptor) {
   FeatureExtractionOptions fo;
   FeatureExtractor extractor(fo);
   const ImageFeatures orb = extractor.extract(image);
-  std::vector<KeyframeFeature> tracked;
+  std::vector<KeyframeLandmark> tracked;
   std::vector<size_t> source;
   for (size_t i = 0; i < orb.keypoints.size() && tracked.size() < 40; ++i) {
     if (orb.keypoints[i].octave != 0) continue;
-    KeyframeFeature f;
+    KeyframeLandmark f;
     f.id = i;
     f.pixel = Eigen::Vector2d(orb.keypoints[i].pt.x, orb.keypoints[i].pt.y);
     f.p_odom = Eigen::Vector3d(1.0, 2.0, 0.0);

@@ -398,7 +398,7 @@ TEST(PoseGraphManager, VioResetStartsANewChainLinkedByAWeakPrior) {
     if (i >= 9) {
       kf.session = 1;
       kf.T_odom_b = T_new_old * kf.T_odom_b;
-      for (KeyframeFeature& f : kf.features) f.p_odom = T_new_old * f.p_odom;
+      for (KeyframeLandmark& f : kf.features) f.p_odom = T_new_old * f.p_odom;
     }
     m.feedKeyframe(kf);
   }

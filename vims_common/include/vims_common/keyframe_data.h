@@ -12,7 +12,7 @@
 namespace vims {
 
 /// A feature the sliding window has triangulated, seen in this keyframe.
-struct KeyframeFeature {
+struct KeyframeLandmark {
   std::uint64_t id = 0;                                 ///< tracker id, unique over the run
   Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();     ///< 3D point in the VIO (odom) frame [m]
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();      ///< observation in this image (distorted pixels)
@@ -25,7 +25,7 @@ struct KeyframeData {
   /// unrelated odom frames, and the pose graph must not chain them with a sequential edge.
   std::uint32_t session = 0;
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  ///< body pose in the VIO frame
-  std::vector<KeyframeFeature> features;
+  std::vector<KeyframeLandmark> features;
   cv::Mat image;  ///< the keyframe image (CV_8UC1), for ORB description in the pose graph
 };
 

@@ -85,7 +85,7 @@ class KeyframeDescriber {
 
   /// A keyframe: its visual submap (describeImage, plus the replicated tracked corners when
   /// enabled) and, in *points, its described tracked points for use as a loop query.
-  VisualSubmap describeKeyframe(const cv::Mat& image, const std::vector<KeyframeFeature>& features,
+  VisualSubmap describeKeyframe(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
                                 const BinaryVocabulary* vocabulary, DescribedPoints* points);
 
   /// Describes the tracked points of a keyframe. ORB: each point is replicated on every pyramid
@@ -93,7 +93,7 @@ class KeyframeDescriber {
   /// of that level, and dropped on levels where its Harris response is below the threshold or
   /// its patch leaves the image; BRIEF: one unoriented descriptor at the original scale (also
   /// Harris-tested). Points with non-finite coordinates are skipped.
-  DescribedPoints describePoints(const cv::Mat& image, const std::vector<KeyframeFeature>& features);
+  DescribedPoints describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features);
 
   const FeatureExtractionOptions& featureOptions() const { return features_; }
 
