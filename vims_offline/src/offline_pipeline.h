@@ -35,7 +35,7 @@ namespace vims {
 struct OfflineOptions {
   std::string sequence_dir;
   std::string out_dir;
-  std::string config_path;  ///< system configuration (config/vims.yaml); empty = built-in defaults
+  std::string config_path;  ///< system configuration (sections as in config/<module>.yaml); empty = defaults
   bool show_progress = true;
   /// The paper's ablation variants, all on the same code path (docs/offline_outputs.md):
   /// "full" (default); "no_sonar" (estimator.use_sonar forced to false; the sonar filter still
@@ -51,7 +51,7 @@ struct OfflineOptions {
   static const std::vector<std::string>& modes();
 };
 
-/// The system configuration (config/vims.yaml): one section per module. Every section and key
+/// The system configuration: one section per module, each with the keys of config/<module>.yaml. Every section and key
 /// is optional (defaults are the option structs' defaults); unknown ones are errors.
 struct SystemConfig {
   SonarFilterOptions sonar;

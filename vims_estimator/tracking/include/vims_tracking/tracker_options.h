@@ -79,7 +79,7 @@ struct TrackerOptions {
   double ransac_confidence = 0.99;
   int ransac_max_iterations = 1000;
 
-  /// Reads the options from a mapping (e.g. the `tracker:` section of config/vims.yaml).
+  /// Reads the options from a mapping (e.g. the `tracker:` section of a vims_offline configuration).
   /// Absent keys keep their defaults; unknown keys and out-of-range values throw ConfigError
   /// naming the key.
   static TrackerOptions fromReader(const ConfigReader& reader);
