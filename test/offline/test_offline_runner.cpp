@@ -7,6 +7,8 @@
 #include <sensor_msgs/Imu.h>
 #include <yaml-cpp/yaml.h>
 
+#include "vims_test/tool_runner.h"
+
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -18,35 +20,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CommandResult runCommand(const std::string& command) {
-  CommandResult result;
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  if (!pipe) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe.get())) result.output += buffer.data();
-  const int status = pclose(pipe.release());
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using vims::test::CommandResult;
+using vims::test::freshDir;
+using vims::test::runCommand;
 
 std::string offlineBinary() { return std::string(VIMS_DEVEL_BIN_DIR) + "/vims_offline"; }
-
-std::string testData(const std::string& name) {
-  const char* dir = std::getenv("VIMS_TEST_DATA");
-  return dir ? std::string(dir) + "/" + name : std::string();
-}
-
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+std::string testData(const std::string& name) { return vims::test::testSequence(name); }
 
 }  // namespace
 

@@ -11,40 +11,19 @@
 #include <string>
 
 #include "vims_common/trajectory_io.h"
+#include "vims_test/tool_runner.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CommandResult runCommand(const std::string& command) {
-  CommandResult result;
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  if (!pipe) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe.get())) result.output += buffer.data();
-  const int status = pclose(pipe.release());
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using vims::test::CommandResult;
+using vims::test::freshDir;
+using vims::test::runCommand;
 
 std::string offlineBinary() { return std::string(VIMS_DEVEL_BIN_DIR) + "/vims_offline"; }
 
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string tank30() {
-  const char* dir = std::getenv("VIMS_TEST_DATA");
-  return dir ? std::string(dir) + "/tank30" : std::string();
-}
+std::string tank30() { return vims::test::testSequence("tank30"); }
 
 }  // namespace
 
