@@ -1,0 +1,62 @@
+/// The committed configuration files under config/ are what users copy and what the launch files
+/// load, so they must state exactly the defaults the code uses: a file that drifts from the code
+/// would document one value and run with another (or, when a node loads it, silently change the
+/// behaviour of the offline runner, which uses the built-in defaults). Each file is read with the
+/// module's own validating reader and its effective options are compared with the defaults.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "vims_common/config_reader.h"
+#include "vims_estimator/estimator_options.h"
+#include "vims_magnetometer/magnetometer_options.h"
+#include "vims_pose_graph/loop_closing_options.h"
+#include "vims_sonar/sonar_filter_options.h"
+#include "vims_tracking/tracker_options.h"
+
+namespace {
+
+vims::ConfigReader committedConfig(const std::string& name) {
+  return vims::ConfigReader::fromFile(std::string(VIMS_SOURCE_DIR) + "/config/" + name);
+}
+
+/// Reads `file` (optionally its `section`) with the module's reader and compares the effective
+/// options, as YAML, with the defaults. The YAML text names the differing key in the failure.
+template <typename Options>
+void expectFileStatesTheDefaults(const std::string& file, const std::string& section = "") {
+  SCOPED_TRACE("config/" + file);
+  const vims::ConfigReader root = committedConfig(file);
+  Options from_file;
+  ASSERT_NO_THROW(from_file = Options::fromReader(section.empty() ? root : root.child(section)));
+  EXPECT_EQ(from_file.toYaml(), Options().toYaml())
+      << "config/" << file << " differs from the defaults in the code: update one of them";
+}
+
+TEST(CommittedConfigs, SonarFileStatesTheDefaults) {
+  expectFileStatesTheDefaults<vims::SonarFilterOptions>("sonar.yaml");
+}
+
+TEST(CommittedConfigs, MagnetometerFileStatesTheDefaults) {
+  expectFileStatesTheDefaults<vims::MagnetometerOptions>("magnetometer.yaml");
+}
+
+TEST(CommittedConfigs, TrackerFileStatesTheDefaults) {
+  expectFileStatesTheDefaults<vims::TrackerOptions>("tracker.yaml");
+}
+
+TEST(CommittedConfigs, EstimatorFileStatesTheDefaults) {
+  expectFileStatesTheDefaults<vims::EstimatorOptions>("estimator.yaml", "estimator");
+}
+
+TEST(CommittedConfigs, PoseGraphFileStatesTheDefaults) {
+  expectFileStatesTheDefaults<vims::PoseGraphManagerOptions>("pose_graph.yaml");
+}
+
+/// The check above must be able to fail: a changed value is visible in the compared YAML.
+TEST(CommittedConfigs, AChangedValueIsDetected) {
+  const vims::SonarFilterOptions changed =
+      vims::SonarFilterOptions::fromReader(vims::ConfigReader::fromString("window_size: 9\n"));
+  EXPECT_NE(changed.toYaml(), vims::SonarFilterOptions().toYaml());
+}
+
+}  // namespace
