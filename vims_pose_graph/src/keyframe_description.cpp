@@ -4,7 +4,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace vims {
 
@@ -16,6 +18,29 @@ constexpr int kOrbPatchSize = 31;
 constexpr int kOrbHalfPatch = kOrbPatchSize / 2;
 constexpr int kHarrisBlock = 7;
 }  // namespace
+
+void mergeDescribedPoints(DescribedPoints* local, const DescribedPoints& older) {
+  std::unordered_map<uint64_t, uint32_t> index_of;
+  for (uint32_t i = 0; i < local->feature_id.size(); ++i) index_of.emplace(local->feature_id[i], i);
+  std::vector<uint32_t> new_index(older.numPoints());
+  for (uint32_t i = 0; i < older.numPoints(); ++i) {
+    const auto it = index_of.find(older.feature_id[i]);
+    if (it != index_of.end()) {
+      new_index[i] = it->second;
+      continue;
+    }
+    new_index[i] = static_cast<uint32_t>(local->p_odom.size());
+    index_of.emplace(older.feature_id[i], new_index[i]);
+    local->feature_id.push_back(older.feature_id[i]);
+    local->p_odom.push_back(older.p_odom[i]);
+    local->pixel.push_back(older.pixel[i]);
+  }
+  for (size_t d = 0; d < older.descriptors.size(); ++d) {
+    local->descriptors.push_back(older.descriptors[d]);
+    local->point_of_descriptor.push_back(new_index[older.point_of_descriptor[d]]);
+    local->level_of_descriptor.push_back(older.level_of_descriptor[d]);
+  }
+}
 
 cv::Mat toMono8(const cv::Mat& image) {
   if (image.empty()) return cv::Mat();
@@ -181,29 +206,66 @@ VisualSubmap KeyframeDescriber::describeImage(const cv::Mat& image, const Binary
   return submap;
 }
 
+void KeyframeDescriber::setDenseCorners(int max_corners, double min_distance_px, int max_level) {
+  if (max_corners < 0 || !(min_distance_px >= 1.0) || max_level < 0)
+    throw std::invalid_argument("KeyframeDescriber::setDenseCorners: invalid arguments");
+  dense_corners_ = max_corners;
+  dense_min_distance_px_ = min_distance_px;
+  dense_max_level_ = max_level;
+}
+
+namespace {
+/// Appends replicated point descriptors (up to max_level) to a submap's matching keypoints.
+/// Their angle is -1 (not detected by ORB) and the octave is the replication level.
+void appendReplicated(const DescribedPoints& described, int max_level, double scale_factor,
+                      const CameraCalibration& camera, VisualSubmap* submap) {
+  std::vector<cv::Point2f> pixels;
+  for (size_t d = 0; d < described.descriptors.size(); ++d) {
+    const int level = described.level_of_descriptor[d];
+    if (level > max_level) continue;
+    const Eigen::Vector2d& px = described.pixel[described.point_of_descriptor[d]];
+    const float size = static_cast<float>(kOrbPatchSize * std::pow(scale_factor, level));
+    submap->keypoints.emplace_back(cv::Point2f(static_cast<float>(px.x()), static_cast<float>(px.y())), size, -1.0f,
+                                   0.0f, level);
+    submap->descriptors.push_back(described.descriptors[d]);
+    pixels.push_back(submap->keypoints.back().pt);
+  }
+  const std::vector<Eigen::Vector2d> normalized = undistortPixels(camera, pixels);
+  submap->normalized.insert(submap->normalized.end(), normalized.begin(), normalized.end());
+}
+}  // namespace
+
 VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
                                                 const BinaryVocabulary* vocabulary, DescribedPoints* points) {
   VisualSubmap submap = describeImage(image, vocabulary);
   DescribedPoints described = describePoints(image, features);
-  if (include_tracked_corners_ && !submap.empty() && !described.descriptors.empty()) {
-    std::vector<cv::Point2f> pixels;
-    for (size_t d = 0; d < described.descriptors.size(); ++d) {
-      const Eigen::Vector2d& px = described.pixel[described.point_of_descriptor[d]];
-      const int level = described.level_of_descriptor[d];
-      const float size = static_cast<float>(kOrbPatchSize * std::pow(features_.orb_scale_factor, level));
-      submap.keypoints.emplace_back(cv::Point2f(static_cast<float>(px.x()), static_cast<float>(px.y())), size, -1.0f,
-                                    0.0f, level);
-      submap.descriptors.push_back(described.descriptors[d]);
-      pixels.push_back(submap.keypoints.back().pt);
+  if (include_tracked_corners_ && !submap.empty() && !described.descriptors.empty())
+    appendReplicated(described, std::numeric_limits<int>::max(), features_.orb_scale_factor, camera_, &submap);
+  if (dense_corners_ > 0 && features_.descriptor == DescriptorType::kOrb && !submap.empty()) {
+    // The tracker's detector (Shi-Tomasi, block 3), densely: whichever corners the VIO happened
+    // to track at the query, the candidate then has a keypoint at most of them.
+    const cv::Mat mono = toMono8(image);
+    std::vector<cv::Point2f> corners;
+    cv::goodFeaturesToTrack(mono, corners, dense_corners_, 0.001, dense_min_distance_px_, cv::noArray(), 3, false);
+    std::vector<KeyframeLandmark> pseudo;  // 2D only: the 3D position is not used for keypoints
+    pseudo.reserve(corners.size());
+    for (const cv::Point2f& c : corners) {
+      KeyframeLandmark l;
+      l.pixel = Eigen::Vector2d(c.x, c.y);
+      pseudo.push_back(l);
     }
-    const std::vector<Eigen::Vector2d> normalized = undistortPixels(camera_, pixels);
-    submap.normalized.insert(submap.normalized.end(), normalized.begin(), normalized.end());
+    appendReplicated(describePoints(mono, pseudo, dense_max_level_), dense_max_level_, features_.orb_scale_factor, camera_, &submap);
   }
   if (points != nullptr) *points = std::move(described);
   return submap;
 }
 
 DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features) {
+  return describePoints(image, features, std::numeric_limits<int>::max());
+}
+
+DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
+                                                  int max_level) {
   DescribedPoints out;
   const cv::Mat mono = toMono8(image);
   if (mono.empty() || features.empty()) return out;
@@ -237,7 +299,8 @@ DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const st
 
   if (features_.descriptor == DescriptorType::kOrb) {
     const std::vector<cv::Mat> pyramid = buildPyramid(mono);
-    for (int level = 0; level < static_cast<int>(pyramid.size()); ++level) {
+    const int levels = static_cast<int>(std::min<size_t>(pyramid.size(), static_cast<size_t>(std::max(max_level, 0)) + 1));
+    for (int level = 0; level < levels; ++level) {
       const double scale = std::pow(features_.orb_scale_factor, level);
       for (size_t u = 0; u < usable.size(); ++u) {
         const cv::Point2f pt0(static_cast<float>(out.pixel[u].x()), static_cast<float>(out.pixel[u].y()));

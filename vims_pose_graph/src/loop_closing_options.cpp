@@ -141,7 +141,8 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   reader.rejectUnknownKeys({"exclude_recent_keyframes", "exclude_recent_s", "query_signature_max_dt_s",
                             "mag_distance_relative", "mag_distance_floor_tesla", "mag_max_candidates",
                             "bow_min_score", "bow_max_candidates", "bow_max_candidates_all", "harris_threshold",
-                            "submap_include_tracked_corners", "match_ratio", "match_max_distance",
+                            "submap_include_tracked_corners", "submap_dense_corners", "query_local_map_keyframes",
+                            "submap_corner_min_distance_px", "submap_corner_max_level", "match_ratio", "match_max_distance",
                             "match_max_level_difference", "match_duplicate_radius_px",
                             "pnp_reprojection_px", "pnp_iterations", "pnp_confidence", "pnp_min_inliers",
                             "covisibility_neighbours", "covisibility_min_points", "covisibility_min_ratio",
@@ -170,6 +171,15 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireInRange(reader, "harris_threshold", o.harris_threshold, 0.0, 1.0);
   o.submap_include_tracked_corners =
       reader.get<bool>("submap_include_tracked_corners", o.submap_include_tracked_corners);
+  o.submap_dense_corners = reader.get<int>("submap_dense_corners", o.submap_dense_corners);
+  requireInRange(reader, "submap_dense_corners", o.submap_dense_corners, 0, 100000);
+  o.query_local_map_keyframes = reader.get<int>("query_local_map_keyframes", o.query_local_map_keyframes);
+  requireInRange(reader, "query_local_map_keyframes", o.query_local_map_keyframes, 0, 100);
+  o.submap_corner_min_distance_px =
+      reader.get<double>("submap_corner_min_distance_px", o.submap_corner_min_distance_px);
+  requireInRange(reader, "submap_corner_min_distance_px", o.submap_corner_min_distance_px, 1.0, 1000.0);
+  o.submap_corner_max_level = reader.get<int>("submap_corner_max_level", o.submap_corner_max_level);
+  requireInRange(reader, "submap_corner_max_level", o.submap_corner_max_level, 0, 16);
   o.match_ratio = reader.get<double>("match_ratio", o.match_ratio);
   requireInRange(reader, "match_ratio", o.match_ratio, 0.01, 1.0);
   o.match_max_distance = reader.get<int>("match_max_distance", o.match_max_distance);
@@ -213,6 +223,10 @@ void LoopDetectorOptions::validate() const {
   check(bow_max_candidates >= 1, w, "bow_max_candidates");
   check(bow_max_candidates_all >= 1, w, "bow_max_candidates_all");
   check(harris_threshold >= 0.0, w, "harris_threshold");
+  check(submap_dense_corners >= 0, w, "submap_dense_corners");
+  check(query_local_map_keyframes >= 0, w, "query_local_map_keyframes");
+  check(submap_corner_min_distance_px >= 1.0, w, "submap_corner_min_distance_px");
+  check(submap_corner_max_level >= 0, w, "submap_corner_max_level");
   check(match_ratio > 0.0 && match_ratio <= 1.0, w, "match_ratio");
   check(match_max_distance >= 0 && match_max_distance <= 256, w, "match_max_distance");
   check(match_max_level_difference >= -1, w, "match_max_level_difference");
@@ -242,6 +256,10 @@ std::string LoopDetectorOptions::toYaml() const {
      << "bow_max_candidates_all: " << bow_max_candidates_all << "\n"
      << "harris_threshold: " << harris_threshold << "\n"
      << "submap_include_tracked_corners: " << (submap_include_tracked_corners ? "true" : "false") << "\n"
+     << "submap_dense_corners: " << submap_dense_corners << "\n"
+     << "query_local_map_keyframes: " << query_local_map_keyframes << "\n"
+     << "submap_corner_min_distance_px: " << submap_corner_min_distance_px << "\n"
+     << "submap_corner_max_level: " << submap_corner_max_level << "\n"
      << "match_ratio: " << match_ratio << "\n"
      << "match_max_distance: " << match_max_distance << "\n"
      << "match_max_level_difference: " << match_max_level_difference << "\n"
@@ -277,7 +295,7 @@ PoseGraphManagerOptions PoseGraphManagerOptions::fromReader(const ConfigReader& 
   reader.rejectUnknownKeys({"mode", "vocabulary_orb", "vocabulary_brief", "synchronous", "optimise_every_n_keyframes",
                             "magnetic_wait_s", "geomagnetic_max_dt_s", "signature_max_extrapolation_s",
                             "session_link_position_sigma_m", "session_link_position_sigma_per_s",
-                            "session_link_yaw_sigma_deg", "session_link_yaw_sigma_per_s_deg", "features",
+                            "session_link_yaw_sigma_deg", "session_link_yaw_sigma_per_s_deg", "record_inputs_path", "features",
                             "magnetic_submaps", "loop_closing", "pose_graph"});
   PoseGraphManagerOptions o;
   const std::string mode = reader.get<std::string>("mode", toString(o.mode));
@@ -312,6 +330,7 @@ PoseGraphManagerOptions PoseGraphManagerOptions::fromReader(const ConfigReader& 
       reader.get<double>("session_link_yaw_sigma_per_s_deg", o.session_link_yaw_sigma_per_s_rad / kDeg);
   requireInRange(reader, "session_link_yaw_sigma_per_s_deg", yaw_rate_deg, 0.0, 360.0);
   o.session_link_yaw_sigma_per_s_rad = yaw_rate_deg * kDeg;
+  o.record_inputs_path = reader.get<std::string>("record_inputs_path", o.record_inputs_path);
 
   if (reader.has("features")) {
     const ConfigReader features = reader.child("features");
@@ -369,6 +388,7 @@ std::string PoseGraphManagerOptions::toYaml() const {
      << "session_link_position_sigma_per_s: " << session_link_position_sigma_per_s << "\n"
      << "session_link_yaw_sigma_deg: " << session_link_yaw_sigma_rad / kDeg << "\n"
      << "session_link_yaw_sigma_per_s_deg: " << session_link_yaw_sigma_per_s_rad / kDeg << "\n"
+     << "record_inputs_path: \"" << record_inputs_path << "\"\n"
      << "features:\n"
      << indent(feature_yaml, "  ") << "magnetic_submaps:\n"
      << indent(magnetic.toYaml(), "  ") << "loop_closing:\n"

@@ -44,6 +44,8 @@ PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const
       map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
       magnetic_builder_(options.magnetic) {
   options_.validate();
+  describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
+                             options_.loop.submap_corner_max_level);
   if (!vocabulary_ || vocabulary_->empty())
     throw std::invalid_argument("PoseGraphManager: no vocabulary (load " + options_.vocabularyPath() + ")");
   if (vocabulary_->descriptorType() != toString(mode_.descriptor))
@@ -54,6 +56,10 @@ PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const
                                      << ", magnetic stage " << (mode_.magnetic_stage ? "on" : "off")
                                      << ", geomagnetic yaw " << (mode_.geomagnetic_yaw ? "on" : "off") << "), "
                                      << (options_.synchronous ? "synchronous" : "worker threads")));
+  if (!options_.record_inputs_path.empty()) {
+    recorder_ = std::make_unique<InputRecorder>(options_.record_inputs_path);
+    logger_->info(kComponent, "recording the inputs to " + options_.record_inputs_path);
+  }
   if (!options_.synchronous) {
     processing_thread_ = std::thread([this] { processingLoop(); });
     optimiser_thread_ = std::thread([this] { optimiserLoop(); });
@@ -77,6 +83,10 @@ PoseGraphManager::~PoseGraphManager() {
 // ---------------------------------------------------------------------------------------------
 
 void PoseGraphManager::feedKeyframe(const KeyframeData& keyframe) {
+  if (recorder_) {
+    std::lock_guard<std::mutex> lk(recorder_mutex_);
+    recorder_->write(keyframe);
+  }
   if (options_.synchronous) {
     Event e = keyframe;
     dispatch(e);
@@ -88,6 +98,10 @@ void PoseGraphManager::feedKeyframe(const KeyframeData& keyframe) {
 }
 
 void PoseGraphManager::feedSignature(const SignatureWindow& window) {
+  if (recorder_) {
+    std::lock_guard<std::mutex> lk(recorder_mutex_);
+    recorder_->write(window);
+  }
   if (options_.synchronous) {
     Event e = window;
     dispatch(e);
@@ -97,6 +111,10 @@ void PoseGraphManager::feedSignature(const SignatureWindow& window) {
 }
 
 void PoseGraphManager::feedGeomagnetic(double t, const Eigen::Vector3d& field_body) {
+  if (recorder_) {
+    std::lock_guard<std::mutex> lk(recorder_mutex_);
+    recorder_->write(t, field_body);
+  }
   if (options_.synchronous) {
     Event e = GeomagneticEvent{t, field_body};
     dispatch(e);
@@ -106,6 +124,10 @@ void PoseGraphManager::feedGeomagnetic(double t, const Eigen::Vector3d& field_bo
 }
 
 void PoseGraphManager::finish() {
+  if (recorder_) {
+    std::lock_guard<std::mutex> lk(recorder_mutex_);
+    recorder_->flush();
+  }
   if (options_.synchronous) {
     Event e = FinishEvent{};
     dispatch(e);
@@ -425,6 +447,15 @@ void PoseGraphManager::processPending(PendingKeyframe& p) {
   query.T_odom_b = map_.node(p.node).pose.T_odom_b;
   query.bow = std::move(p.bow);
   query.points = std::move(p.points);
+  if (options_.loop.query_local_map_keyframes > 0) {
+    const uint32_t session = map_.node(p.node).session;
+    DescribedPoints own = query.points;  // the keyframe's own points, for the next queries
+    for (auto it = recent_points_.rbegin(); it != recent_points_.rend(); ++it)
+      if (it->session == session) mergeDescribedPoints(&query.points, it->points);
+    recent_points_.push_back(RecentPoints{p.node, session, std::move(own)});
+    while (recent_points_.size() > static_cast<size_t>(options_.loop.query_local_map_keyframes))
+      recent_points_.pop_front();
+  }
   query.signature_enu = signature;
   ++stats_.loop_queries;
   DetectionResult result = detector_.detect(query, map_);

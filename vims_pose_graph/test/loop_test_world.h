@@ -7,8 +7,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -96,6 +98,44 @@ class TestWorld {
     kf.image = render(T_w_b, noise_seed);
     std::vector<cv::Point2f> corners;
     cv::goodFeaturesToTrack(kf.image, corners, max_corners, 0.01, 12.0);
+    addLandmarks(corners, T_w_b, &kf);
+    return kf;
+  }
+
+  /// A keyframe whose tracked points are chosen like the VIO's tracker chooses them: at most
+  /// `max_corners` Shi-Tomasi corners at least 30 px apart, taken in an order set by the track
+  /// history rather than by strength (emulated by shuffling the image's corners with
+  /// `selection_seed`). Two visits of one place then track mostly different corners, as on real
+  /// VIO keyframes (the strongest-first selection of keyframe() re-finds the same ones).
+  KeyframeData trackerKeyframe(double t, uint32_t session, const Eigen::Isometry3d& T_w_b,
+                               const Eigen::Isometry3d& T_odom_b, uint32_t selection_seed, int max_corners = 150) const {
+    KeyframeData kf;
+    kf.t = t;
+    kf.session = session;
+    kf.T_odom_b = T_odom_b;
+    kf.image = render(T_w_b, 1);
+    std::vector<cv::Point2f> all;
+    cv::goodFeaturesToTrack(kf.image, all, 3000, 0.001, 3.0);
+    std::mt19937 rng(selection_seed);
+    std::shuffle(all.begin(), all.end(), rng);
+    std::vector<cv::Point2f> corners;
+    for (const cv::Point2f& c : all) {
+      if (static_cast<int>(corners.size()) >= max_corners) break;
+      bool free = true;
+      for (const cv::Point2f& o : corners) free = free && cv::norm(c - o) >= 30.0;
+      if (free) corners.push_back(c);
+    }
+    addLandmarks(corners, T_w_b, &kf);
+    return kf;
+  }
+
+ private:
+  /// Tracked points at `corners` with their exact 3D points (ray-seabed intersection) in the
+  /// keyframe's VIO frame.
+  void addLandmarks(const std::vector<cv::Point2f>& corners, const Eigen::Isometry3d& T_w_b, KeyframeData* out) const {
+    KeyframeData& kf = *out;
+    const double t = kf.t;
+    const Eigen::Isometry3d& T_odom_b = kf.T_odom_b;
     const Eigen::Isometry3d T_w_c = T_w_b * camera_.T_b_c;
     const Eigen::Isometry3d T_odom_w = T_odom_b * T_w_b.inverse();
     uint64_t id = static_cast<uint64_t>(t * 1000.0) * 1000;
@@ -113,10 +153,8 @@ class TestWorld {
       f.normalized = ray_c.head<2>();
       kf.features.push_back(f);
     }
-    return kf;
   }
 
- private:
   CameraCalibration camera_;
   sim::PinholeRadtanCamera model_;
   std::shared_ptr<sim::SeabedTexture> texture_;

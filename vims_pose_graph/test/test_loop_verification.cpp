@@ -177,6 +177,89 @@ TEST(LoopVerification, AcceptsRevisitFromOtherHeadingsWithCorrectRelativePose) {
   }
 }
 
+// Root cause of issue 5 (no loop accepted on real VIO keyframes, tank750): the real tracker keeps
+// ~150 corners 30 px apart chosen by track history, so two visits of a place track mostly
+// different corners; the old submaps offered the query's points only the candidate's own tracked
+// corners and ORB's FAST corners, and one keyframe's points. With keyframes built like that
+// (trackerKeyframe), the old configuration (no dense corners, no local map) must reject a true
+// revisit and the defaults (dense Shi-Tomasi corners in the submap, the query's local map of
+// preceding keyframes) must accept it with the right relative pose.
+TEST(LoopVerification, RevisitWithTrackerSelectedCornersNeedsDenseCornersAndLocalMap) {
+  test::TestWorld world(kWorldSeed);
+  struct Config {
+    int dense_corners;
+    int local_map_keyframes;
+    double pnp_reprojection_px;
+    int pnp_iterations;
+  };
+  const LoopDetectorOptions defaults;
+  ASSERT_GT(defaults.submap_dense_corners, 0);
+  ASSERT_GT(defaults.query_local_map_keyframes, 0);
+  std::vector<LoopStage> stages;
+  std::vector<std::string> details;
+  for (const Config c : {Config{0, 0, 3.0, 200}, Config{defaults.submap_dense_corners, defaults.query_local_map_keyframes,
+                                                         defaults.pnp_reprojection_px, defaults.pnp_iterations}}) {
+    LoopDetectorOptions o = testLoopOptions();
+    o.submap_dense_corners = c.dense_corners;
+    o.query_local_map_keyframes = c.local_map_keyframes;
+    o.pnp_reprojection_px = c.pnp_reprojection_px;
+    o.pnp_iterations = c.pnp_iterations;
+    KeyframeDescriber describer(FeatureExtractionOptions(), o.harris_threshold, world.camera());
+    describer.setDenseCorners(o.submap_dense_corners, o.submap_corner_min_distance_px, o.submap_corner_max_level);
+    MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+    // First visit: a pass along +x at 2.5 m, keyframes 0.4 m apart (VIO frame = world).
+    const uint32_t s0 = map.addSession(0, false);
+    std::vector<Eigen::Isometry3d> poses;
+    for (int i = 0; i < 7; ++i) {
+      const Eigen::Isometry3d T_w_b = bodyPose(0.4 * i, 0.0, 2.5, 0.0, 1.0, -0.5);
+      poses.push_back(T_w_b);
+      const KeyframeData kf = world.trackerKeyframe(1.0 * i, 0, T_w_b, T_w_b, 100 + static_cast<uint32_t>(i));
+      DescribedPoints unused;
+      map.addNode(kf.t, s0, T_w_b, T_w_b.translation(), 0.0,
+                  describer.describeKeyframe(kf.image, kf.features, map.vocabulary().get(), &unused), true);
+      if (i > 0) map.addSequentialEdge(static_cast<PoseGraphNodeId>(i - 1), static_cast<PoseGraphNodeId>(i));
+    }
+    // Second visit, another VIO frame: a pass at heading 120 deg whose last keyframe is 0.3 m
+    // from keyframe 3's camera; the query is that last keyframe.
+    const Eigen::Isometry3d T_odom_w = yawTransform(-70.0, Eigen::Vector3d(12.0, -4.0, 0.3));
+    const uint32_t s1 = map.addSession(1, false);
+    LoopQuery q;
+    Eigen::Isometry3d T_w_bq;
+    std::vector<DescribedPoints> previous;
+    for (int j = 3; j >= 0; --j) {
+      const Eigen::Vector2d along = Eigen::Rotation2Dd(120.0 * kDeg) * Eigen::Vector2d(-0.3 * j, 0.0);
+      const Eigen::Isometry3d T_w_b = poseWithCameraAt(Eigen::Vector2d(1.45, 0.28) + along, 2.6, 120.0, -1.0, 1.5);
+      const KeyframeData kf = world.trackerKeyframe(100.0 - j, 1, T_w_b, T_odom_w * T_w_b, 200 + static_cast<uint32_t>(j));
+      DescribedPoints points;
+      const VisualSubmap v = describer.describeKeyframe(kf.image, kf.features, map.vocabulary().get(), &points);
+      const PoseGraphNodeId n = map.addNode(kf.t, s1, kf.T_odom_b, T_w_b.translation(), 0.0, v, true);
+      if (j > 0) {
+        previous.push_back(std::move(points));
+        continue;
+      }
+      q.node = n;
+      q.t = kf.t;
+      q.T_odom_b = kf.T_odom_b;
+      q.bow = v.bow;
+      q.points = std::move(points);
+      T_w_bq = T_w_b;
+    }
+    // The manager's local map: the newest preceding keyframes first.
+    for (int k = 0; k < c.local_map_keyframes && k < static_cast<int>(previous.size()); ++k)
+      mergeDescribedPoints(&q.points, previous[previous.size() - 1 - static_cast<size_t>(k)]);
+    const VerificationResult r = LoopVerifier(o, world.camera()).verify(q, map, 3);
+    details.push_back(VIMS_STR("dense corners " << c.dense_corners << ", local map " << c.local_map_keyframes
+                               << ", pnp " << c.pnp_reprojection_px << " px x" << c.pnp_iterations
+                               << ": matches " << r.num_matches << ", inliers " << r.num_inliers << ", stage "
+                               << toString(r.stage)));
+    stages.push_back(r.stage);
+    // 0.1 m / 2 deg: the loop edge's sigmas (0.1 m, 1 deg yaw) plus the roll/pitch the graph drops.
+    if (r.stage == LoopStage::kAccepted) expectPoseNear(r.T_match_query, poses[3].inverse() * T_w_bq, 0.1, 2.0);
+  }
+  EXPECT_NE(stages[0], LoopStage::kAccepted) << details[0] << ": the test no longer captures the cause";
+  EXPECT_EQ(stages[1], LoopStage::kAccepted) << details[1];
+}
+
 TEST(LoopVerification, RejectsCandidatesFromADifferentPlace) {
   test::TestWorld world(kWorldSeed);
   PassMap pass(world, DescriptorType::kOrb);

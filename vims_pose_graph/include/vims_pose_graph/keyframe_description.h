@@ -94,6 +94,12 @@ class KeyframeDescriber {
   /// its patch leaves the image; BRIEF: one unoriented descriptor at the original scale (also
   /// Harris-tested). Points with non-finite coordinates are skipped.
   DescribedPoints describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features);
+  /// The same on pyramid levels 0..max_level only.
+  DescribedPoints describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features, int max_level);
+
+  /// Dense corners of describeKeyframe's submap (see LoopDetectorOptions::submap_dense_corners);
+  /// off (0) unless set. ORB only (BRIEF, the baseline, keeps its single-scale detected corners).
+  void setDenseCorners(int max_corners, double min_distance_px, int max_level);
 
   const FeatureExtractionOptions& featureOptions() const { return features_; }
 
@@ -105,11 +111,20 @@ class KeyframeDescriber {
   FeatureExtractionOptions features_;
   double harris_threshold_;
   bool include_tracked_corners_;
+  int dense_corners_ = 0;
+  double dense_min_distance_px_ = 4.0;
+  int dense_max_level_ = 3;
   CameraCalibration camera_;
   FeatureExtractor extractor_;
   cv::Ptr<cv::ORB> orb_;  ///< computes descriptors at given keypoints (same settings as the extractor)
   BriefDescriptor brief_;
 };
+
+/// Adds the described points of an older keyframe of the same VIO session to `local` (a loop
+/// query's local map): a point whose VIO track id is already in `local` keeps its position (the
+/// newer estimate) and gains the older view's descriptors (several views of one point match a
+/// revisit from more directions); other points are appended with their position and descriptors.
+void mergeDescribedPoints(DescribedPoints* local, const DescribedPoints& older);
 
 /// Converts KeyframeData.image to CV_8UC1 (mono8 as is, 3-channel BGR to grey); an empty or
 /// unsupported image gives an empty matrix.

@@ -127,6 +127,21 @@ struct LoopDetectorOptions {
   /// matching keypoints (not to its BoW vector). Queries are tracked corners; the same detector
   /// on both sides re-finds the same corners (~40 % more correct matches on the simulated seabed).
   bool submap_include_tracked_corners = true;
+  /// Also add up to this many Shi-Tomasi corners detected in the keyframe image (the tracker's
+  /// detector: block 3, down to 0.1 % of the strongest response, submap_corner_min_distance_px
+  /// apart), replicated on pyramid levels 0..submap_corner_max_level like the tracked points
+  /// (matching keypoints only; 0 disables). Reason: the VIO keeps only ~150 corners 30 px apart,
+  /// chosen by track history, so at a real revisit only ~6 of ~117 visible query points have a
+  /// tracked corner of the candidate within 3 px, and ~12 an ORB keypoint; a dense set of the
+  /// same detector's corners re-finds ~40 (tank750, vims_pose_graph_replay --diagnose).
+  int submap_dense_corners = 800;
+  /// The query's 3D points are those of the query keyframe and of up to this many preceding
+  /// keyframes of its VIO session (a local map, as VINS-Mono's window / ORB-SLAM's local map):
+  /// one keyframe's ~125 describable points see too little of a revisit (0-6 correct matches at
+  /// tank750 revisits); neighbours add the area around it and more views of each point.
+  int query_local_map_keyframes = 5;
+  double submap_corner_min_distance_px = 4.0;
+  int submap_corner_max_level = 3;
 
   // --- 3D-2D matching
   /// Lowe's 2-nearest-neighbour ratio: best < ratio * second best. Lowe's 0.8 is for one
@@ -149,10 +164,18 @@ struct LoopDetectorOptions {
   double match_duplicate_radius_px = 4.0;
 
   // --- PnP RANSAC
-  /// Inlier threshold in the candidate image [px]; 3 px covers ORB keypoint quantisation on
-  /// coarse levels and small VIO point errors.
-  double pnp_reprojection_px = 3.0;
-  int pnp_iterations = 200;
+  /// Inlier threshold in the candidate image [px]. It must cover the error of the VIO's 3D
+  /// points, not only keypoint quantisation: on tank750 a landmark reprojects with a median of
+  /// 1.1 px (p90 3.4 px) into a keyframe only ~0.2 m away, and correct matches at revisits
+  /// 0.5-1.5 m apart reproject with a median of 2 px (p90 4 px) under the true pose, so 3 px
+  /// discarded about half of the correct matches. A wrong match lands within 5 px of a
+  /// hypothesis' prediction with probability ~3e-4 per match (640 x 480 image), so 25 such
+  /// inliers stay out of reach of chance; repeated structure is the covisibility check's job.
+  double pnp_reprojection_px = 5.0;
+  /// RANSAC hypotheses: at the ~20-35 % inlier rates of real revisits a clean 4-point sample
+  /// has probability 0.002-0.015; 200 hypotheses often stopped at a partial consensus (14
+  /// instead of 24 inliers in RevisitWithTrackerSelectedCornersNeedsDenseCornersAndLocalMap).
+  int pnp_iterations = 1000;
   double pnp_confidence = 0.99;
   /// Minimum inliers (VINS-Mono's MIN_LOOP_NUM): fewer cannot tell a revisit from an
   /// accidental small consistent set (a repeated object).
@@ -225,6 +248,9 @@ struct PoseGraphManagerOptions {
   double session_link_position_sigma_per_s = 0.5;
   double session_link_yaw_sigma_rad = 20.0 * M_PI / 180.0;       ///< key session_link_yaw_sigma_deg
   double session_link_yaw_sigma_per_s_rad = 10.0 * M_PI / 180.0; ///< key session_link_yaw_sigma_per_s_deg
+  /// Non-empty: every input fed to the manager is also written to this file (input_recording.h),
+  /// for re-running loop closing offline on a run's real keyframes (vims_pose_graph_replay).
+  std::string record_inputs_path;
 
   ModeSettings modeSettings() const { return ModeSettings::forMode(mode); }
   /// The vocabulary path of the mode's descriptor type.

@@ -31,6 +31,7 @@
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
 #include "vims_magnetometer/signature_extractor.h"
+#include "vims_pose_graph/input_recording.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/loop_detector.h"
@@ -209,6 +210,8 @@ class PoseGraphManager {
   SequenceConfig sequence_;
   std::shared_ptr<const BinaryVocabulary> vocabulary_;
   LoggerPtr logger_;
+  std::unique_ptr<InputRecorder> recorder_;  ///< options_.record_inputs_path; written by the feed calls
+  std::mutex recorder_mutex_;
   KeyframeDescriber describer_;  ///< used by one thread only (the caller, or the processing thread)
   HierarchicalLoopDetector detector_;
 
@@ -221,6 +224,14 @@ class PoseGraphManager {
   uint32_t current_vio_session_ = 0;
   std::vector<PoseGraphNodeId> run_nodes_;    ///< this run's keyframes in time order
   std::deque<PendingKeyframe> pending_;
+  /// Described points of the last processed keyframes (node, session, points), newest last: the
+  /// local map of the next query (LoopDetectorOptions::query_local_map_keyframes).
+  struct RecentPoints {
+    PoseGraphNodeId node;
+    uint32_t session;
+    DescribedPoints points;
+  };
+  std::deque<RecentPoints> recent_points_;
   std::deque<StoredWindow> windows_;          ///< recent signature windows (query lookup, coverage)
   std::deque<StoredWindow> unplaced_;         ///< windows waiting to be placed on the trajectory
   std::deque<GeomagneticEvent> geomagnetic_;  ///< recent geomagnetic samples
