@@ -15,11 +15,15 @@
 //             ~options_file    (string, optional): PoseGraphManagerOptions, e.g. config/pose_graph.yaml;
 //                              empty = the defaults. `synchronous` is forced to false.
 //             ~mode            (string, optional): full | vi_slam | no_alter | no_orb | no_geom,
-//                              overrides the options' mode
+//                              overrides the options' mode; no_sonar (the estimator's ablation)
+//                              means full here, as in vims_offline
 //             ~package_root    (string): where relative vocabulary paths start; default: the path
 //                              of the `vims` package (roslib), required without roslib
 //             ~map_load        (string, optional): a saved map to relocalise against (teach and repeat)
 //             ~map_save        (string, optional): where to save the map on shutdown
+//             ~output_dir      (string, optional): on shutdown, after processing what is queued,
+//                              writes global.tum and loops.csv there, the same files vims_offline
+//                              writes (docs/offline_outputs.md)
 //             ~map_frame_id, ~odom_frame_id (string, default "map", "odom")
 //             ~publish_period_s           (double, default 1.0): path, loop edges and map markers
 //             ~signature_arrow_length_m   (double, default 1.0): length of the signature arrows
@@ -39,6 +43,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -47,6 +52,8 @@
 
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
+#include "vims_common/trajectory_io.h"
+#include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 #include "vims_ros/conversions.h"
 #include "vims_ros/keyframe_conversions.h"
@@ -62,6 +69,7 @@ struct NodeSettings {
   double publish_period_s = 1.0;
   double signature_arrow_length_m = 1.0;
   std::string map_save_path;
+  std::string output_dir;
 };
 
 geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
@@ -70,6 +78,12 @@ geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
   out.y = p.y();
   out.z = p.z();
   return out;
+}
+
+bool finite(const geometry_msgs::Vector3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+bool allFinite(const boost::array<double, 36>& values) {
+  return std::all_of(values.begin(), values.end(), [](double x) { return std::isfinite(x); });
 }
 
 std_msgs::ColorRGBA colour(float r, float g, float b, float a) {
@@ -122,8 +136,10 @@ class PoseGraphNode {
   /// rosconsole no longer prints.
   bool shutdown() {
     publish_timer_.stop();
-    if (settings_.map_save_path.empty()) return true;
+    if (settings_.map_save_path.empty() && settings_.output_dir.empty()) return true;
     manager_->finish();
+    if (!settings_.output_dir.empty() && !writeOutputs()) return false;
+    if (settings_.map_save_path.empty()) return true;
     try {
       manager_->saveMap(settings_.map_save_path);
     } catch (const std::exception& e) {
@@ -136,6 +152,32 @@ class PoseGraphNode {
   }
 
  private:
+  /// global.tum (the final optimised body pose of every keyframe of this run, world frame) and
+  /// loops.csv (every loop attempt), written as vims_offline writes them.
+  bool writeOutputs() {
+    const std::filesystem::path dir(settings_.output_dir);
+    try {
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      const std::vector<vims::KeyframePose> poses = manager_->keyframePoses();
+      vims::TumWriter global_tum((dir / "global.tum").string());
+      for (const vims::KeyframePose& pose : poses) {
+        global_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
+      }
+      global_tum.flush();
+      vims::LoopCsvWriter loops_csv((dir / "loops.csv").string());
+      for (const vims::LoopAttempt& attempt : manager_->loopAttempts()) loops_csv.write(attempt);
+      loops_csv.flush();
+      std::cerr << "vims_pose_graph: " << poses.size() << " keyframe poses written to " << (dir / "global.tum").string()
+                << std::endl;
+    } catch (const std::exception& e) {
+      std::cerr << "vims_pose_graph: could not write the outputs to " << settings_.output_dir << ": " << e.what()
+                << std::endl;
+      return false;
+    }
+    return true;
+  }
+
   void onKeyframe(const vims::Keyframe::ConstPtr& msg) {
     vims::KeyframeData keyframe;
     std::string why;
@@ -171,6 +213,12 @@ class PoseGraphNode {
     std::string why;
     if (!vims::toIsometry(msg->pose.pose, &T_odom_b, &why)) {
       ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "odometry dropped: " << why);
+      return;
+    }
+    // The twist and the covariances are passed on: nothing non-finite may go out with them.
+    if (!allFinite(msg->pose.covariance) || !allFinite(msg->twist.covariance) || !finite(msg->twist.twist.linear) ||
+        !finite(msg->twist.twist.angular)) {
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "odometry dropped: non-finite twist or covariance");
       return;
     }
     const Eigen::Isometry3d T_map_odom = manager_->T_map_odom();
@@ -365,6 +413,7 @@ int main(int argc, char** argv) {
   pnh.param<std::string>("map_load", map_load_path, "");
   NodeSettings settings;
   pnh.param<std::string>("map_save", settings.map_save_path, "");
+  pnh.param<std::string>("output_dir", settings.output_dir, "");
   pnh.param<std::string>("map_frame_id", settings.map_frame_id, settings.map_frame_id);
   pnh.param<std::string>("odom_frame_id", settings.odom_frame_id, settings.odom_frame_id);
   pnh.param("publish_period_s", settings.publish_period_s, settings.publish_period_s);
@@ -392,6 +441,7 @@ int main(int argc, char** argv) {
     vims::PoseGraphManagerOptions options =
         options_path.empty() ? vims::PoseGraphManagerOptions{}
                              : vims::PoseGraphManagerOptions::fromReader(vims::ConfigReader::fromFile(options_path));
+    if (mode_name == "no_sonar") mode_name = "full";  // the estimator's ablation; loop closing as full
     if (!mode_name.empty()) {
       try {
         options.mode = vims::loopClosingModeFromString(mode_name);
