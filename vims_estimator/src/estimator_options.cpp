@@ -13,7 +13,7 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
                        "init_velocity_sigma", "init_accel_bias_sigma", "init_gyro_bias_sigma", "imu_max_gap_s",
                        "max_frame_wait_s", "failure_max_accel_bias", "failure_max_gyro_bias",
                        "failure_max_position_jump_m", "failure_max_velocity", "failure_min_tracked",
-                       "failure_lost_tracking_s", "factors"});
+                       "failure_lost_tracking_s", "factors", "solve_window_every_frame", "visual_inertial_init"});
   EstimatorOptions o;
   o.window_size = r.get<int>("window_size", o.window_size);
   requireInRange(r, "window_size", o.window_size, 2, 50);
@@ -25,6 +25,7 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   requireInRange(r, "max_solver_iterations", o.max_solver_iterations, 1, 1000);
   o.max_solver_time_s = r.get<double>("max_solver_time_s", o.max_solver_time_s);
   requireNonNegative(r, "max_solver_time_s", o.max_solver_time_s);
+  o.solve_window_every_frame = r.get<bool>("solve_window_every_frame", o.solve_window_every_frame);
   o.reprojection_loss_scale = r.get<double>("reprojection_loss_scale", o.reprojection_loss_scale);
   requirePositive(r, "reprojection_loss_scale", o.reprojection_loss_scale);
   o.sonar_loss_scale = r.get<double>("sonar_loss_scale", o.sonar_loss_scale);
@@ -80,6 +81,7 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   o.failure_lost_tracking_s = r.get<double>("failure_lost_tracking_s", o.failure_lost_tracking_s);
   requirePositive(r, "failure_lost_tracking_s", o.failure_lost_tracking_s);
   o.factors = FactorOptions::fromReader(r.childOrEmpty("factors"));
+  o.visual_inertial_init = VisualInertialInitOptions::fromReader(r.childOrEmpty("visual_inertial_init"));
   return o;
 }
 
@@ -87,7 +89,9 @@ std::string EstimatorOptions::toYaml() const {
   std::ostringstream os;
   os << "window_size: " << window_size << "\nkeyframe_parallax_px: " << keyframe_parallax_px
      << "\nkeyframe_min_tracked: " << keyframe_min_tracked << "\nmax_solver_iterations: " << max_solver_iterations
-     << "\nmax_solver_time_s: " << max_solver_time_s << "\nreprojection_loss_scale: " << reprojection_loss_scale
+     << "\nmax_solver_time_s: " << max_solver_time_s
+     << "\nsolve_window_every_frame: " << (solve_window_every_frame ? "true" : "false")
+     << "\nreprojection_loss_scale: " << reprojection_loss_scale
      << "\nsonar_loss_scale: " << sonar_loss_scale << "\nmin_feature_depth_m: " << min_feature_depth_m
      << "\nmax_feature_depth_m: " << max_feature_depth_m
      << "\ntriangulation_min_angle_deg: " << triangulation_min_angle_deg
@@ -106,6 +110,9 @@ std::string EstimatorOptions::toYaml() const {
   std::istringstream in(factors.toYaml());
   std::string line;
   while (std::getline(in, line)) os << "  " << line << "\n";
+  os << "visual_inertial_init:\n";
+  std::istringstream init_in(visual_inertial_init.toYaml());
+  while (std::getline(init_in, line)) os << "  " << line << "\n";
   return os.str();
 }
 

@@ -168,6 +168,7 @@ void VioEstimator::reset(const std::string& why) {
   frames_.clear();
   features_.clear();
   priors_.clear();
+  vi_init_frames_.clear();
 }
 
 void VioEstimator::feedImu(const ImuSample& sample) {
@@ -401,6 +402,106 @@ bool VioEstimator::initializeFirstFrame(const TrackedFrame& tracked, const cv::M
   return true;
 }
 
+bool VioEstimator::initializeVisualInertial(const TrackedFrame& tracked, const cv::Mat& image, double t_state) {
+  const VisualInertialInitOptions& init = options_.visual_inertial_init;
+  if (static_cast<int>(tracked.features.size()) < std::max(1, options_.failure_min_tracked)) {
+    vi_init_frames_.clear();  // the scene is lost: start the window again
+    return false;
+  }
+  // Candidate frames: a frame joins when it moved by keyframe_parallax_px from the newest
+  // candidate; if it shares too few features with it the window restarts from this frame.
+  if (!vi_init_frames_.empty()) {
+    const TrackedFrame& last = vi_init_frames_.back().frame;
+    std::map<std::uint64_t, Eigen::Vector2d> last_uv;
+    for (const TrackedFeature& f : last.features) last_uv[f.id] = f.normalized;
+    double parallax = 0.0;
+    int common = 0;
+    for (const TrackedFeature& f : tracked.features) {
+      auto it = last_uv.find(f.id);
+      if (it == last_uv.end()) continue;
+      parallax += (f.normalized - it->second).norm();
+      ++common;
+    }
+    if (t_state <= vi_init_frames_.back().t_state) {
+      vi_init_frames_.clear();
+    } else if (common < init.min_relative_pose_features) {
+      vi_init_frames_.clear();
+    } else if (focal_ * parallax / common < options_.keyframe_parallax_px) {
+      return false;  // too close to the newest candidate
+    }
+  }
+  vi_init_frames_.push_back({tracked, image, t_state});
+  if (static_cast<int>(vi_init_frames_.size()) < init.window_frames) return false;
+
+  std::vector<InitFrame> window;
+  for (std::size_t k = 0; k < vi_init_frames_.size(); ++k) {
+    InitFrame f;
+    f.t = vi_init_frames_[k].t_state;
+    for (const TrackedFeature& tf : vi_init_frames_[k].frame.features) {
+      if (tf.normalized.allFinite()) f.observations[tf.id] = tf.normalized;
+    }
+    if (k > 0) {
+      const auto samples = imuSamplesForInterval(imu_, vi_init_frames_[k - 1].t_state, f.t);
+      if (!samples || samples->size() < 2) {
+        logger_->warnThrottled(kComponent, "vi_init_imu", tracked.t, 5.0,
+                               "visual-inertial initialisation: the IMU does not cover the window; restarting it");
+        vi_init_frames_.clear();
+        return false;
+      }
+      f.preintegration = std::make_shared<ImuPreintegration>(
+          ImuPreintegration::fromSamples(*samples, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), noise_));
+    }
+    window.push_back(std::move(f));
+  }
+  const VisualInertialInitializer initializer(sequence_.camera.T_b_c, sequence_.imu.gravity, focal_, init);
+  const VisualInertialInitResult r = initializer.initialize(window);
+  if (!r.ok()) {
+    logger_->warnThrottled(kComponent, "vi_init", tracked.t, 5.0,
+                           VIMS_STR("visual-inertial initialisation failed (" << visualInertialInitStatusName(r.status)
+                                                                              << "): " << r.message
+                                                                              << "; retrying with the next frames"));
+    vi_init_frames_.pop_front();
+    return false;
+  }
+
+  // Build the window from the alignment: poses, velocities, gyro bias, feature depths.
+  for (std::size_t k = 0; k < vi_init_frames_.size(); ++k) {
+    auto frame = makeFrame(vi_init_frames_[k].frame, vi_init_frames_[k].image, vi_init_frames_[k].t_state);
+    setPose(frame->pose, r.T_w_b[k].translation(), Eigen::Quaterniond(r.T_w_b[k].linear()));
+    Eigen::Map<Eigen::Matrix<double, 9, 1>> sb(frame->sb);
+    sb << r.v_w_b[k], r.accel_bias, r.gyro_bias;
+    frame->preintegration = window[k].preintegration;
+    if (k == 0) {
+      frame->has_first_state_prior = true;
+      frame->prior_p = r.T_w_b[0].translation();
+      frame->prior_q = Eigen::Quaterniond(r.T_w_b[0].linear());
+      frame->prior_sb = sb;
+    }
+    addObservations(frame.get(), vi_init_frames_[k].frame);
+    frames_.push_back(std::move(frame));
+  }
+  const Eigen::Isometry3d T_bc = extrinsicCamera();
+  for (auto& [id, feature] : features_) {
+    auto it = r.points_w.find(id);
+    if (it == r.points_w.end()) continue;
+    const Eigen::Vector3d p_c = (feature.anchor->T_l_b() * T_bc).inverse() * it->second;
+    const double lambda = p_c.norm();
+    if (p_c.z() > kMinTargetDepth && lambda >= options_.min_feature_depth_m && lambda <= options_.max_feature_depth_m) {
+      feature.lambda[0] = lambda;
+      feature.has_depth = true;
+    }
+  }
+  vi_init_frames_.clear();
+  session_ = session_started_ ? session_ + 1 : 0;
+  session_started_ = true;
+  last_good_tracking_t_ = tracked.t;
+  initializeFeatureDepths();
+  logger_->info(kComponent, VIMS_STR("session " << session_ << " initialised at t=" << std::fixed << std::setprecision(3)
+                                                << tracked.t << " by visual-inertial alignment over "
+                                                << frames_.size() << " frames: " << r.message));
+  return true;
+}
+
 void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& image) {
   const auto start = std::chrono::steady_clock::now();
   // The tracker's velocities are differences to its previous accepted frame (this estimator sees
@@ -443,7 +544,9 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   };
 
   if (frames_.empty()) {
-    if (!initializeFirstFrame(tracked, image, t_state)) {
+    const bool visual_inertial = !options_.use_sonar && options_.visual_inertial_init.enabled;
+    if (!(visual_inertial ? initializeVisualInertial(tracked, image, t_state)
+                          : initializeFirstFrame(tracked, image, t_state))) {
       finish(VioStatus::kWaitingForImu);
       return;
     }
@@ -518,14 +621,34 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
     p.fo.velocity = (obs.fo.uv - uv_before_prev) / (p.dt_backward + dt_new);
   }
   frames_.push_back(std::move(frame));
-  if (options_.use_sonar && !frames_.back()->sonar_range) {
-    logger_->warnThrottled(kComponent, "no_sonar", tracked.t, 10.0,
-                           "no sonar range at the frame time: visual-inertial only until it returns");
-  }
+  fillMissingSonarRanges();
   if (tracked_count >= options_.failure_min_tracked) last_good_tracking_t_ = tracked.t;
 
+  // Keyframe decision on the second newest frame (VINS-Mono): it stays when the newest frame
+  // tracks few of its features or when it moved enough relative to the frame before it. It
+  // depends on the tracks only, so it is taken before the solve, which it selects.
+  bool keyframe = true;
+  const std::size_t n = frames_.size();
+  if (n >= 3) {
+    int common = 0;
+    const double parallax = parallaxPx(*frames_[n - 3], *frames_[n - 2], &common);
+    keyframe = tracked_count < options_.keyframe_min_tracked || common == 0 || parallax >= options_.keyframe_parallax_px;
+  }
+
   initializeFeatureDepths();
-  optimize(&result);
+  // Until the window is full (session start: the gravity direction, the biases and the first
+  // velocities are still being settled) every step optimises the whole, still small, window.
+  const bool window_filling = static_cast<int>(frames_.size()) <= options_.window_size;
+  if (keyframe || window_filling || options_.solve_window_every_frame) {
+    optimize(&result);
+  } else {
+    optimizeNewest(&result);
+  }
+  if (options_.estimate_td && tracked.t - last_td_log_t_ >= 30.0) {
+    last_td_log_t_ = tracked.t;
+    logger_->info(kComponent, VIMS_STR("camera-IMU time offset td = " << std::fixed << std::setprecision(4) << td_[0]
+                                                                       << " s at t=" << std::setprecision(1) << tracked.t));
+  }
   removeOutliers();
 
   std::string why;
@@ -535,15 +658,6 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
     return;
   }
 
-  // Keyframe decision on the second newest frame (VINS-Mono): it stays when the newest frame
-  // tracks few of its features or when it moved enough relative to the frame before it.
-  bool keyframe = true;
-  const std::size_t n = frames_.size();
-  if (n >= 3) {
-    int common = 0;
-    const double parallax = parallaxPx(*frames_[n - 3], *frames_[n - 2], &common);
-    keyframe = tracked_count < options_.keyframe_min_tracked || common == 0 || parallax >= options_.keyframe_parallax_px;
-  }
   result.keyframe = keyframe && n >= 2;
   if (keyframe && n >= 2) emitKeyframe(*frames_[n - 2]);
   if (n >= 3) {
@@ -782,6 +896,88 @@ void VioEstimator::optimize(VioFrameResult* result) {
   ceres::Solve(solver_options, &problem, &summary);
   result->features_in_window = n_features;
   result->sonar_factors = n_sonar;
+}
+
+void VioEstimator::optimizeNewest(VioFrameResult* result) {
+  // Only the newest frame's pose and speed-bias are free; the previous frame's state, the
+  // anchors' poses, the depths, T_b_c and td are constants. Residuals: the IMU factor from the
+  // previous frame and the newest frame's reprojections of every landmark anchored elsewhere.
+  // Features anchored in the newest frame (new ones) constrain nothing yet.
+  const std::size_t n = frames_.size();
+  Frame* prev = frames_[n - 2].get();
+  Frame* newest = frames_[n - 1].get();
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  PoseManifold pose_manifold;
+  ceres::HuberLoss huber(options_.reprojection_loss_scale);
+
+  auto add_constant = [&](double* block, int size, ceres::Manifold* manifold) {
+    if (problem.HasParameterBlock(block)) return;
+    problem.AddParameterBlock(block, size, manifold);
+    problem.SetParameterBlockConstant(block);
+  };
+  problem.AddParameterBlock(newest->pose, kPoseSize, &pose_manifold);
+  problem.AddParameterBlock(newest->sb, kSpeedBiasSize);
+  add_constant(prev->pose, kPoseSize, &pose_manifold);
+  add_constant(prev->sb, kSpeedBiasSize, nullptr);
+  add_constant(T_b_c_block_, kPoseSize, &pose_manifold);
+  add_constant(td_, 1, nullptr);
+  newest->preintegration->repropagateIfNeeded(sbAccelBias(prev->sb), sbGyroBias(prev->sb),
+                                              options_.factors.imu_preintegration);
+  problem.AddResidualBlock(new ImuFactor(newest->preintegration, g_l_), nullptr, prev->pose, prev->sb, newest->pose,
+                           newest->sb);
+
+  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
+      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+  const Eigen::Isometry3d T_bc = extrinsicCamera();
+  const Eigen::Isometry3d T_l_bk = newest->T_l_b();
+  int n_features = 0;
+  for (auto& [id, feature] : features_) {
+    if (!feature.has_depth || !(feature.lambda[0] > 0.0) || feature.anchor == newest) continue;
+    auto it = newest->obs.find(id);
+    if (it == newest->obs.end()) continue;
+    const auto& anchor = feature.anchor->obs.at(id).fo;
+    double z = 0.0;
+    reprojectionResidual(anchor, it->second.fo, feature.anchor->T_l_b(), T_l_bk, T_bc, feature.lambda[0], td_[0],
+                         nullptr, &z);
+    if (!(z > kMinTargetDepth)) continue;
+    add_constant(feature.anchor->pose, kPoseSize, &pose_manifold);
+    add_constant(feature.lambda, 1, nullptr);
+    problem.AddResidualBlock(new ReprojectionFactor(anchor, it->second.fo, sqrt_info), &huber, feature.anchor->pose,
+                             newest->pose, T_b_c_block_, feature.lambda, td_);
+    ++n_features;
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;  // 15 unknowns: nothing to eliminate
+  solver_options.trust_region_strategy_type = ceres::DOGLEG;
+  solver_options.max_num_iterations = options_.max_solver_iterations;
+  if (options_.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  result->features_in_window = n_features;
+  result->sonar_factors = 0;
+}
+
+void VioEstimator::fillMissingSonarRanges() {
+  if (!options_.use_sonar) return;
+  for (auto& frame : frames_) {
+    if (!frame->sonar_range) frame->sonar_range = sonarRangeAt(frame->t_state);
+  }
+  // The newest frame's range may still be on its way; one frame later a missing range is a gap.
+  const std::size_t n = frames_.size();
+  if (n >= 2 && !frames_[n - 2]->sonar_range) {
+    const Frame& f = *frames_[n - 2];
+    logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
+                           VIMS_STR("sonar gap: no filtered range within " << options_.sonar_max_interpolation_gap_s
+                                                                            << " s of the frame at t=" << std::fixed
+                                                                            << std::setprecision(3) << f.t_stamp
+                                                                            << ": visual-inertial only until it returns"));
+  }
 }
 
 void VioEstimator::removeOutliers() {
@@ -1041,8 +1237,9 @@ void VioEstimator::emitKeyframe(Frame& frame) {
 
 void VioEstimator::pruneImu() {
   if (imu_.empty()) return;
-  const double keep_from = frames_.empty() ? imu_.back().t - 2.0 * options_.init_gravity_window_s
-                                           : frames_.front()->t_state - 1.0;
+  double keep_from = frames_.empty() ? imu_.back().t - 2.0 * options_.init_gravity_window_s
+                                     : frames_.front()->t_state - 1.0;
+  if (frames_.empty() && !vi_init_frames_.empty()) keep_from = std::min(keep_from, vi_init_frames_.front().t_state - 1.0);
   auto it = std::lower_bound(imu_.begin(), imu_.end(), keep_from,
                              [](const ImuSample& s, double value) { return s.t < value; });
   if (it != imu_.begin() && it - imu_.begin() > 200) imu_.erase(imu_.begin(), it);

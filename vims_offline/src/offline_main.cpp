@@ -16,7 +16,7 @@ namespace {
 
 const char* kUsage =
     "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode MODE] [--map-load FILE]\n"
-    "                    [--map-save FILE] [--package-root DIR] [--quiet]\n"
+    "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--quiet]\n"
     "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
     "  --config FILE       system configuration: optional sections sonar, magnetometer, tracker, estimator,\n"
@@ -27,6 +27,8 @@ const char* kUsage =
     "  --map-load FILE     relocalise into a map saved by an earlier run (teach and repeat)\n"
     "  --map-save FILE     save the map at the end\n"
     "  --package-root DIR  root for relative vocabulary paths (default: the source tree it was built from)\n"
+    "  --threads 1|2       2 (default): the feature tracker runs on its own thread, overlapping the\n"
+    "                      estimator; 1: one thread. The output files are the same for both\n"
     "  --quiet             no progress output\n";
 
 int usageError(const std::string& message) {
@@ -67,6 +69,11 @@ int main(int argc, char** argv) {
       if (!value(&options.map_save)) return usageError("--map-save needs a file");
     } else if (arg == "--package-root") {
       if (!value(&options.package_root)) return usageError("--package-root needs a directory");
+    } else if (arg == "--threads") {
+      std::string threads;
+      if (!value(&threads)) return usageError("--threads needs 1 or 2");
+      if (threads != "1" && threads != "2") return usageError("--threads must be 1 or 2, got '" + threads + "'");
+      options.threads = std::stoi(threads);
     } else if (arg == "--quiet") {
       options.show_progress = false;
     } else {
@@ -80,8 +87,9 @@ int main(int argc, char** argv) {
   try {
     vims::OfflinePipeline pipeline(options, vims::Logger::stderrLogger(vims::LogLevel::kInfo));
     const vims::OfflineSummary summary = pipeline.run();
-    std::printf("VIMS_OFFLINE sequence=%s duration_s=%.2f wall_s=%.2f rtf=%.1f\n", summary.sequence_name.c_str(),
-                summary.sequence_duration_s, summary.wall_time_s, summary.real_time_factor);
+    std::printf("VIMS_OFFLINE sequence=%s duration_s=%.2f wall_s=%.2f rtf=%.1f vio_rtf=%.1f\n",
+                summary.sequence_name.c_str(), summary.sequence_duration_s, summary.wall_time_s,
+                summary.real_time_factor, summary.vio_real_time_factor);
     for (const auto& [topic, stats] : summary.topics) {
       std::printf("  %-22s %-28s %8ld messages, %ld rejected\n", topic.c_str(), stats.type.c_str(), stats.messages,
                   stats.rejected);

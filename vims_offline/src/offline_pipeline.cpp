@@ -3,10 +3,17 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <mutex>
+#include <numeric>
+#include <optional>
+#include <sys/resource.h>
+#include <thread>
 #include <unistd.h>
 
 #include "vims_common/config_reader.h"
@@ -41,6 +48,22 @@ class ProgressPrinter {
   int last_percent_ = -1;
 };
 
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// CPU time of the calling thread [s]: unlike wall time it does not grow when other processes
+/// compete for the cores, so it measures the work itself.
+double threadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+double sumSeconds(const std::vector<double>& ms) { return 1e-3 * std::accumulate(ms.begin(), ms.end(), 0.0); }
+
 /// Nearest-rank percentile (q in [0, 1]); 0 for an empty set.
 double percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
@@ -50,6 +73,104 @@ double percentile(std::vector<double> values, double q) {
 }
 
 }  // namespace
+
+/// Runs FeatureTracker::process on the camera frames one at a time, in submission order. With a
+/// thread, submit() returns at once and the tracking overlaps whatever the caller does until
+/// take(); without one, submit() tracks inline. The tracker's state depends on its input images
+/// only, so both give the same TrackedFrames.
+class OfflinePipeline::TrackerWorker {
+ public:
+  using Result = TrackedResult;
+
+  TrackerWorker(FeatureTracker* tracker, bool threaded) : tracker_(tracker) {
+    if (threaded) thread_ = std::thread([this] { loop(); });
+  }
+  ~TrackerWorker() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+  TrackerWorker(const TrackerWorker&) = delete;
+  TrackerWorker& operator=(const TrackerWorker&) = delete;
+
+  /// A frame was submitted and not yet taken.
+  bool pending() const { return pending_; }
+
+  /// Starts tracking `frame`; the previous result must have been taken.
+  void submit(const CameraFrame& frame) {
+    pending_ = true;
+    if (!thread_.joinable()) {
+      result_.frame = frame;
+      track();
+      return;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      result_.frame = frame;
+      job_ = true;
+      done_ = false;
+    }
+    wake_.notify_all();
+  }
+
+  /// Waits for the submitted frame and returns it with its tracking result (rethrows what the
+  /// tracker threw).
+  Result take() {
+    pending_ = false;
+    if (thread_.joinable()) {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [this] { return done_; });
+      job_ = false;
+    }
+    if (error_) {
+      std::exception_ptr error = error_;
+      error_ = nullptr;
+      std::rethrow_exception(error);
+    }
+    return std::move(result_);
+  }
+
+ private:
+  void track() {
+    try {
+      const Clock::time_point start = Clock::now();
+      const double cpu_start = threadCpuSeconds();
+      result_.tracked = tracker_->process(result_.frame);
+      result_.ms = millisecondsSince(start);
+      result_.cpu_s = threadCpuSeconds() - cpu_start;
+    } catch (...) {
+      error_ = std::current_exception();
+    }
+  }
+
+  void loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (true) {
+      wake_.wait(lock, [this] { return stop_ || (job_ && !done_); });
+      if (stop_) return;
+      lock.unlock();
+      track();  // result_ is not touched by the caller until done_ is set
+      lock.lock();
+      done_ = true;
+      wake_.notify_all();
+    }
+  }
+
+  FeatureTracker* tracker_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool pending_ = false;  ///< caller side only
+  bool job_ = false;
+  bool done_ = false;
+  bool stop_ = false;
+  Result result_;
+  std::exception_ptr error_;
+};
 
 SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
   SystemConfig config;
@@ -93,6 +214,10 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   sonar_csv_ = std::make_unique<SonarCsvWriter>((out / "sonar_filtered.csv").string());
   signature_csv_ = std::make_unique<SignatureCsvWriter>((out / "mag_signatures.csv").string());
   tracker_ = std::make_unique<FeatureTracker>(sequence_.camera, config_.tracker, logger_);
+  if (options_.threads != 1 && options_.threads != 2) {
+    throw std::runtime_error("threads must be 1 or 2, got " + std::to_string(options_.threads));
+  }
+  tracker_worker_ = std::make_unique<TrackerWorker>(tracker_.get(), options_.threads == 2);
   estimator_ = std::make_unique<VioEstimator>(sequence_, config_.estimator, logger_);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
   pose_graph_ = std::make_unique<PoseGraphManager>(
@@ -109,18 +234,51 @@ const std::vector<std::string>& OfflineOptions::modes() {
 
 OfflinePipeline::~OfflinePipeline() = default;
 
+template <typename Call>
+void OfflinePipeline::timePoseGraph(bool is_keyframe, Call&& call) {
+  const Clock::time_point start = Clock::now();
+  call();
+  const double ms = millisecondsSince(start);
+  const std::size_t optimisations = pose_graph_->stats().optimisations;
+  if (optimisations != pose_graph_optimisations_seen_) {
+    pose_graph_optimisations_seen_ = optimisations;
+    pose_graph_optimisation_ms_.push_back(ms);
+  } else if (is_keyframe) {
+    place_recognition_ms_.push_back(ms);
+  } else {
+    pose_graph_other_ms_ += ms;
+  }
+}
+
 void OfflinePipeline::onImu(const ImuSample& sample) {
   signature_extractor_->feedImu(sample);
+  const double cpu_start = threadCpuSeconds();
   estimator_->feedImu(sample);
+  backend_cpu_s_ += threadCpuSeconds() - cpu_start;
   drainEstimator();
 }
 
 void OfflinePipeline::onImage(const CameraFrame& frame) {
-  const auto start = std::chrono::steady_clock::now();
-  const TrackedFrame tracked = tracker_->process(frame);
-  frontend_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-  estimator_->feedFrame(tracked, frame.image);
+  // Frame k reaches the estimator when frame k+1 arrives (or at the end of the bag), after every
+  // message recorded between the two: a fixed point of the message stream, so the outputs do not
+  // depend on how long the tracker takes, while frame k+1 is tracked during frame k's back end.
+  std::optional<TrackerWorker::Result> previous;
+  if (tracker_worker_->pending()) previous = tracker_worker_->take();
+  tracker_worker_->submit(frame);
+  if (previous) feedTracked(*previous);
+}
+
+void OfflinePipeline::feedTracked(const TrackedResult& tracked) {
+  frontend_ms_.push_back(tracked.ms);
+  frontend_cpu_s_ += tracked.cpu_s;
+  const double cpu_start = threadCpuSeconds();
+  estimator_->feedFrame(tracked.tracked, tracked.frame.image);
+  backend_cpu_s_ += threadCpuSeconds() - cpu_start;
   drainEstimator();
+}
+
+void OfflinePipeline::feedTrackedFrame() {
+  if (tracker_worker_->pending()) feedTracked(tracker_worker_->take());
 }
 
 void OfflinePipeline::drainEstimator() {
@@ -134,7 +292,7 @@ void OfflinePipeline::drainEstimator() {
     ++vio_frames_;
   }
   for (const KeyframeData& keyframe : estimator_->takeKeyframes()) {
-    pose_graph_->feedKeyframe(keyframe);
+    timePoseGraph(true, [&] { pose_graph_->feedKeyframe(keyframe); });
     ++vio_keyframes_;
   }
   drainLoopAttempts();
@@ -156,12 +314,16 @@ void OfflinePipeline::onSonar(const SonarRange& range) {
 void OfflinePipeline::onMag(const MagSample& sample) {
   signature_windows_.clear();
   geomagnetic_samples_.clear();
+  const Clock::time_point start = Clock::now();
   signature_extractor_->feedMag(sample, &signature_windows_, &geomagnetic_samples_);
+  magnetometer_ms_.push_back(millisecondsSince(start));
   for (const auto& window : signature_windows_) {
     signature_csv_->write(window);
-    pose_graph_->feedSignature(window);
+    timePoseGraph(false, [&] { pose_graph_->feedSignature(window); });
   }
-  for (const auto& geomagnetic : geomagnetic_samples_) pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b);
+  for (const auto& geomagnetic : geomagnetic_samples_) {
+    timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); });
+  }
   if (!signature_windows_.empty()) drainLoopAttempts();
 }
 
@@ -194,13 +356,14 @@ OfflineSummary OfflinePipeline::run() {
   OfflineSummary summary;
   summary.sequence_name = paths_.name;
   summary.topics = reader.run(handlers);
+  feedTrackedFrame();  // the last frame
   sonar_results_.clear();
   sonar_filter_->flush(&sonar_results_);
   for (const auto& result : sonar_results_) sonar_csv_->write(result);
   sonar_csv_->flush();
   drainEstimator();
   vio_tum_->flush();
-  pose_graph_->finish();
+  timePoseGraph(false, [&] { pose_graph_->finish(); });
   drainLoopAttempts();
   loops_csv_->flush();
   {
@@ -217,6 +380,23 @@ OfflineSummary OfflinePipeline::run() {
   summary.frontend_ms_p99 = percentile(frontend_ms_, 0.99);
   summary.backend_ms_p50 = percentile(backend_ms_, 0.5);
   summary.backend_ms_p99 = percentile(backend_ms_, 0.99);
+  summary.magnetometer_ms_p50 = percentile(magnetometer_ms_, 0.5);
+  summary.magnetometer_ms_p99 = percentile(magnetometer_ms_, 0.99);
+  summary.place_recognition_ms_p50 = percentile(place_recognition_ms_, 0.5);
+  summary.place_recognition_ms_p99 = percentile(place_recognition_ms_, 0.99);
+  summary.pose_graph_optimisation_ms_p50 = percentile(pose_graph_optimisation_ms_, 0.5);
+  summary.pose_graph_optimisation_ms_p99 = percentile(pose_graph_optimisation_ms_, 0.99);
+  summary.pose_graph_optimisation_calls = static_cast<long>(pose_graph_optimisation_ms_.size());
+  summary.frontend_total_s = sumSeconds(frontend_ms_);
+  summary.backend_total_s = sumSeconds(backend_ms_);
+  summary.magnetometer_total_s = sumSeconds(magnetometer_ms_);
+  summary.pose_graph_total_s =
+      sumSeconds(place_recognition_ms_) + sumSeconds(pose_graph_optimisation_ms_) + 1e-3 * pose_graph_other_ms_;
+  summary.threads = options_.threads;
+  summary.frontend_cpu_s = frontend_cpu_s_;
+  summary.backend_cpu_s = backend_cpu_s_;
+  summary.vio_cpu_real_time_factor =
+      frontend_cpu_s_ + backend_cpu_s_ > 0 ? span / (frontend_cpu_s_ + backend_cpu_s_) : 0.0;
   summary.vio_frames = vio_frames_;
   summary.vio_keyframes = vio_keyframes_;
   summary.vio_resets = vio_resets_;
@@ -228,6 +408,10 @@ OfflineSummary OfflinePipeline::run() {
   summary.wall_time_s = wall_seconds();
   summary.sequence_duration_s = span;
   summary.real_time_factor = summary.wall_time_s > 0 ? span / summary.wall_time_s : 0.0;
+  const double vio_s = summary.frontend_total_s + summary.backend_total_s;
+  summary.vio_real_time_factor = vio_s > 0 ? span / vio_s : 0.0;
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
   writeSummary(summary);
   return summary;
 }
@@ -244,6 +428,9 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "wall_time_s: " << s.wall_time_s << "\n";
   out << "sequence_duration_s: " << s.sequence_duration_s << "\n";
   out << "real_time_factor: " << s.real_time_factor << "\n";
+  out << "vio_real_time_factor: " << s.vio_real_time_factor << "\n";
+  out << "threads: " << s.threads << "\n";
+  out << "peak_rss_mb: " << s.peak_rss_mb << "\n";
   out << "sonar_filter: {samples: " << s.sonar.samples << ", accepted: " << s.sonar.accepted
       << ", outliers: " << s.sonar.outliers << ", dropouts: " << s.sonar.dropouts
       << ", warming_up: " << s.sonar.warming_up << ", resets: " << s.sonar.resets << "}\n";
@@ -261,7 +448,17 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false")
       << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
-      << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99 << "}\n";
+      << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99
+      << ", magnetometer_p50: " << s.magnetometer_ms_p50 << ", magnetometer_p99: " << s.magnetometer_ms_p99
+      << ", place_recognition_p50: " << s.place_recognition_ms_p50
+      << ", place_recognition_p99: " << s.place_recognition_ms_p99
+      << ", pose_graph_optimisation_p50: " << s.pose_graph_optimisation_ms_p50
+      << ", pose_graph_optimisation_p99: " << s.pose_graph_optimisation_ms_p99 << "}\n";
+  out << "stage_total_s: {frontend: " << s.frontend_total_s << ", backend: " << s.backend_total_s
+      << ", magnetometer: " << s.magnetometer_total_s << ", pose_graph: " << s.pose_graph_total_s
+      << ", pose_graph_optimisations: " << s.pose_graph_optimisation_calls << "}\n";
+  out << "vio_cpu_s: {frontend: " << s.frontend_cpu_s << ", backend: " << s.backend_cpu_s
+      << ", real_time_factor: " << s.vio_cpu_real_time_factor << "}\n";
   out << "messages:\n";
   for (const auto& [topic, stats] : s.topics) {
     out << "  " << topic << ": {type: " << stats.type << ", count: " << stats.messages

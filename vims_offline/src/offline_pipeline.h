@@ -46,6 +46,11 @@ struct OfflineOptions {
   std::string map_save;  ///< where to save the map at the end; empty: not saved
   /// Root that relative vocabulary paths of the configuration are resolved against.
   std::string package_root;
+  /// 2: the feature tracker runs on its own thread, one frame ahead of the estimator (the
+  /// back end of frame k overlaps the front end of frame k+1); 1: everything on one thread.
+  /// Both feed the estimator at the same points of the message stream, so every output file is
+  /// identical for either value.
+  int threads = 2;
 
   /// The modes --mode accepts.
   static const std::vector<std::string>& modes();
@@ -76,6 +81,24 @@ struct OfflineSummary {
   /// Per-frame wall-clock latency [ms]: front end (tracker) and back end (estimator).
   double frontend_ms_p50 = 0.0, frontend_ms_p99 = 0.0;
   double backend_ms_p50 = 0.0, backend_ms_p99 = 0.0;
+  /// Per-call wall-clock latency [ms] of the other stages: magnetometer (SignatureExtractor::feedMag
+  /// per 1 kHz sample), place recognition (PoseGraphManager::feedKeyframe calls that ran no graph
+  /// optimisation: describe, detect, verify) and pose-graph optimisation (the pose-graph calls,
+  /// finish() included, after which the manager had run an optimisation).
+  double magnetometer_ms_p50 = 0.0, magnetometer_ms_p99 = 0.0;
+  double place_recognition_ms_p50 = 0.0, place_recognition_ms_p99 = 0.0;
+  double pose_graph_optimisation_ms_p50 = 0.0, pose_graph_optimisation_ms_p99 = 0.0;
+  long pose_graph_optimisation_calls = 0;
+  /// Total wall-clock time per stage over the run [s].
+  double frontend_total_s = 0.0, backend_total_s = 0.0, magnetometer_total_s = 0.0, pose_graph_total_s = 0.0;
+  /// sequence_duration_s / (frontend_total_s + backend_total_s): the VIO's real-time factor with
+  /// front and back end run one after the other (a lower bound for the pipelined VIO).
+  double vio_real_time_factor = 0.0;
+  /// CPU time of the front end (tracker thread) and back end (estimator calls) [s], and
+  /// sequence_duration_s over their sum: the VIO's cost, independent of other load on the machine.
+  double frontend_cpu_s = 0.0, backend_cpu_s = 0.0, vio_cpu_real_time_factor = 0.0;
+  double peak_rss_mb = 0.0;  ///< getrusage ru_maxrss at the end of the run
+  int threads = 1;
   long vio_frames = 0;        ///< poses written to vio.tum
   long vio_keyframes = 0;
   long vio_resets = 0;
@@ -102,6 +125,19 @@ class OfflinePipeline {
   void writeSummary(const OfflineSummary& summary) const;
   void drainEstimator();
   void drainLoopAttempts();
+  /// A camera frame with the tracker's result for it.
+  struct TrackedResult {
+    CameraFrame frame;
+    TrackedFrame tracked;
+    double ms = 0.0;     ///< wall time of FeatureTracker::process
+    double cpu_s = 0.0;  ///< its CPU time
+  };
+  void feedTracked(const TrackedResult& tracked);
+  /// Feeds the tracked frame waiting in the tracker (if any) to the estimator.
+  void feedTrackedFrame();
+  /// Runs a pose-graph call and files its duration under place recognition / optimisation.
+  template <typename Call>
+  void timePoseGraph(bool is_keyframe, Call&& call);
 
   OfflineOptions options_;
   LoggerPtr logger_;
@@ -117,10 +153,19 @@ class OfflinePipeline {
   std::vector<SonarFilterResult> sonar_results_;       // reused buffers: no allocation per message
   // Visual-inertial(-sonar) odometry: the runner owns the tracker and feeds the estimator.
   std::unique_ptr<FeatureTracker> tracker_;
+  class TrackerWorker;
+  std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs tracker_, inline or on its thread
   std::unique_ptr<VioEstimator> estimator_;
   std::unique_ptr<TumWriter> vio_tum_;
   std::vector<double> frontend_ms_;
   std::vector<double> backend_ms_;
+  std::vector<double> magnetometer_ms_;
+  std::vector<double> place_recognition_ms_;
+  std::vector<double> pose_graph_optimisation_ms_;
+  double frontend_cpu_s_ = 0.0;
+  double backend_cpu_s_ = 0.0;
+  double pose_graph_other_ms_ = 0.0;  ///< pose-graph calls in neither bucket (signatures, geomagnetic field)
+  std::size_t pose_graph_optimisations_seen_ = 0;
   long vio_frames_ = 0;
   long vio_keyframes_ = 0;
   long vio_resets_ = 0;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 
@@ -72,6 +73,43 @@ TEST(OfflineVio, PoseGraphModesWriteGlobalTrajectoryAndLoopLog) {
     for (std::string line; std::getline(loops, line);) rows += line.empty() ? 0 : 1;
     EXPECT_EQ(rows, summary["pose_graph"]["loop_attempts"].as<long>()) << mode;
   }
+}
+
+static std::string fileContents(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The tracker thread (--threads 2, default) must not change any output: the estimator gets each
+// frame at the same point of the message stream as with --threads 1. Also checks the per-stage
+// latency and resource keys of summary.yaml.
+TEST(OfflineVio, TrackerThreadGivesIdenticalOutputs) {
+  const std::string seq = tank30();
+  if (seq.empty()) GTEST_SKIP() << "VIMS_TEST_DATA not set (run through ctest)";
+  std::array<fs::path, 2> outs;
+  for (int threads : {1, 2}) {
+    outs[threads - 1] = freshDir("offline_vio_threads" + std::to_string(threads));
+    const CommandResult r = runCommand(offlineBinary() + " --quiet --threads " + std::to_string(threads) +
+                                       " --sequence " + seq + " --out " + outs[threads - 1].string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const YAML::Node summary = YAML::LoadFile((outs[threads - 1] / "summary.yaml").string());
+    EXPECT_EQ(summary["threads"].as<int>(), threads);
+    for (const char* key : {"magnetometer_p99", "place_recognition_p99", "pose_graph_optimisation_p99"}) {
+      EXPECT_GT(summary["latency_ms"][key].as<double>(), 0.0) << key;
+    }
+    EXPECT_GT(summary["vio_real_time_factor"].as<double>(), 0.0);
+    EXPECT_GT(summary["vio_cpu_s"]["frontend"].as<double>(), 0.0);
+    EXPECT_GT(summary["vio_cpu_s"]["backend"].as<double>(), 0.0);
+    EXPECT_GT(summary["peak_rss_mb"].as<double>(), 10.0);
+  }
+  for (const char* file : {"vio.tum", "global.tum", "loops.csv"}) {
+    const std::string one = fileContents(outs[0] / file);
+    EXPECT_FALSE(one.empty()) << file;
+    EXPECT_TRUE(one == fileContents(outs[1] / file)) << file << " differs between --threads 1 and 2";
+  }
+  const CommandResult bad = runCommand(offlineBinary() + " --threads 3 --sequence x --out " +
+                                       freshDir("offline_vio_badthreads").string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
 }
 
 TEST(OfflineVio, UnknownModeIsAUsageError) {

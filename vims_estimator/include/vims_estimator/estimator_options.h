@@ -9,6 +9,7 @@
 
 #include "vims_common/config_reader.h"
 #include "vims_estimator/factor_options.h"
+#include "vims_estimator/initialization/visual_inertial_initializer.h"
 
 namespace vims {
 
@@ -35,6 +36,14 @@ struct EstimatorOptions {
   /// [s] Wall-clock cap of one solve; 0.04 s keeps 10 Hz with margin on an embedded CPU. Set 0 to
   /// disable (the offline runner's determinism needs a bound on iterations only: see docs).
   double max_solver_time_s = 0.0;
+  /// false: the whole window is optimised only on the steps that keep a keyframe (about one
+  /// frame in five); on the other steps (the second newest frame is about to be dropped, its
+  /// visual factors with it) only the newest frame's pose and speed-bias are optimised against
+  /// the fixed window: its IMU factor from the previous frame and its reprojections of the
+  /// landmarks with depth. The keyframes get the same full solves as before the drop, and the
+  /// per-frame cost falls several fold (docs/estimator.md, "Cost"). true: every frame optimises
+  /// the whole window (VINS-Mono).
+  bool solve_window_every_frame = false;
   /// Huber scale of the reprojection factors in whitened units (pixel sigmas): residuals beyond
   /// one sigma grow linearly, so KLT drifts and mismatches cannot dominate.
   double reprojection_loss_scale = 1.0;
@@ -102,8 +111,11 @@ struct EstimatorOptions {
 
   // ---- bad input and failure detection ----
   /// [s] IMU gaps up to this are integrated across (mid-point over the gap); longer gaps reset
-  /// the estimator (the preintegration over them is meaningless).
-  double imu_max_gap_s = 0.5;
+  /// the estimator (the preintegration over them is meaningless). 1 s bridges a driver dropout of
+  /// half a second (a gap of 0.5 s arrives as a 0.505 s step between samples): the AUV turns
+  /// < 10 deg/s and barely accelerates, so the mid-point over 1 s stays within the IMU's noise
+  /// far better than a reset, which loses the motion.
+  double imu_max_gap_s = 1.0;
   /// [s] Frames are held until the IMU covers their time; after this much image-ahead-of-IMU lag
   /// a frame is dropped.
   double max_frame_wait_s = 1.0;
@@ -114,10 +126,18 @@ struct EstimatorOptions {
   double failure_max_position_jump_m = 2.0;
   double failure_max_velocity = 5.0;     ///< [m/s] far above any AUV speed
   /// Fewer tracked features than this for longer than failure_lost_tracking_s: re-initialise.
+  /// Until then the state is propagated by the IMU (frames without features are not added) and
+  /// the first frame with features again is linked to the window by the preintegration across
+  /// the outage. 10 s: a camera blackout of several seconds (turbidity, a strobe failure) keeps
+  /// the odometry continuous; IMU-only drift over 10 s with estimated biases is decimetres, while
+  /// a reset loses the whole motion of the outage.
   int failure_min_tracked = 8;
-  double failure_lost_tracking_s = 3.0;
+  double failure_lost_tracking_s = 10.0;
 
   FactorOptions factors;
+  /// Sonar-free initialisation (use_sonar: false): SfM + IMU alignment (section
+  /// `visual_inertial_init`, visual_inertial_initializer.h).
+  VisualInertialInitOptions visual_inertial_init;
 
   /// Unknown keys and out-of-range values throw ConfigError naming the key.
   static EstimatorOptions fromReader(const ConfigReader& reader);

@@ -107,6 +107,9 @@ class VioEstimator {
   void processPendingFrames();
   void processFrame(const TrackedFrame& frame, const cv::Mat& image);
   bool initializeFirstFrame(const TrackedFrame& frame, const cv::Mat& image, double t_state);
+  /// Sonar-free start: collects frames with parallax and runs the SfM + IMU alignment
+  /// (VisualInertialInitializer); true once the window is built from its result.
+  bool initializeVisualInertial(const TrackedFrame& frame, const cv::Mat& image, double t_state);
   std::unique_ptr<Frame> makeFrame(const TrackedFrame& frame, const cv::Mat& image, double t_state);
   void addObservations(Frame* frame, const TrackedFrame& tracked);
   double parallaxPx(const Frame& a, const Frame& b, int* common) const;
@@ -115,6 +118,12 @@ class VioEstimator {
   bool seabedDepth(const Feature& feature, double* lambda) const;
   bool triangulate(const Feature& feature, double* lambda) const;
   void optimize(VioFrameResult* result);
+  /// Optimises only the newest frame's pose and speed-bias against the fixed rest of the window
+  /// (EstimatorOptions::solve_window_every_frame = false, on steps that keep no keyframe).
+  void optimizeNewest(VioFrameResult* result);
+  /// Looks up the sonar range of window frames that had none when they arrived (the range may
+  /// come after the image); warns (throttled) when a frame one step old still has none: a gap.
+  void fillMissingSonarRanges();
   void removeOutliers();
   bool detectFailure(const Eigen::Vector3d& p_before, std::string* why) const;
   void marginalizeOldest();
@@ -138,6 +147,13 @@ class VioEstimator {
   std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results
   std::deque<std::pair<TrackedFrame, cv::Mat>> pending_;
+  /// Frames collected for the visual-inertial initialisation (use_sonar: false), oldest first.
+  struct InitCandidate {
+    TrackedFrame frame;
+    cv::Mat image;
+    double t_state = 0.0;
+  };
+  std::deque<InitCandidate> vi_init_frames_;
 
   std::deque<std::unique_ptr<Frame>> frames_;  ///< the window, oldest first
   std::map<std::uint64_t, Feature> features_;
@@ -151,6 +167,7 @@ class VioEstimator {
   double last_good_tracking_t_ = 0.0;
   double last_frame_stamp_ = -1e300;
   double last_tracked_stamp_ = -1e300;  ///< stamp of the previous frame processed
+  double last_td_log_t_ = -1e300;       ///< stamp of the last td log line (estimate_td)
 
   std::vector<VioFrameResult> results_;
   std::vector<KeyframeData> keyframes_;
