@@ -1,8 +1,6 @@
 #include "vims_eval/cli.h"
 
-#include <cerrno>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -12,6 +10,7 @@
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
+#include "vims_eval/cli_args.h"
 #include "vims_eval/eval_options.h"
 #include "vims_eval/loops.h"
 #include "vims_eval/metrics.h"
@@ -24,12 +23,6 @@ namespace vims {
 namespace eval {
 namespace {
 
-/// A command-line mistake: reported with a hint to --help and exit code 2.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 // Options shared by the subcommands; `true` = takes a value.
 const std::map<std::string, bool> kTrajectoryOptions = {
     {"align", true}, {"max-dt", true}, {"interpolate", false}, {"max-gt-gap", true}, {"rpe-delta", true}};
@@ -37,62 +30,13 @@ const std::map<std::string, bool> kLoopOptions = {{"trans-tol", true},      {"ro
                                                   {"revisit-radius", true}, {"revisit-gap", true},
                                                   {"revisit-margin", true}, {"max-gt-gap", true}};
 
-/// Parsed `--name value` / `--flag` arguments of one subcommand.
-class Args {
- public:
-  Args(const std::vector<std::string>& args, std::size_t first, const std::map<std::string, bool>& allowed,
-       const std::string& command) {
-    for (std::size_t i = first; i < args.size(); ++i) {
-      const std::string& a = args[i];
-      if (a.size() < 3 || a.compare(0, 2, "--") != 0)
-        throw UsageError(command + ": unexpected argument '" + a + "'");
-      const std::string name = a.substr(2);
-      const auto spec = allowed.find(name);
-      if (spec == allowed.end()) throw UsageError(command + ": unknown option '" + a + "'");
-      if (values_.count(name)) throw UsageError(command + ": option '" + a + "' given twice");
-      if (spec->second) {
-        if (i + 1 >= args.size()) throw UsageError(command + ": option '" + a + "' needs a value");
-        values_[name] = args[++i];
-      } else {
-        values_[name] = "";
-      }
-    }
-  }
+}  // namespace
 
-  bool has(const std::string& name) const { return values_.count(name) > 0; }
-
-  std::string required(const std::string& name, const std::string& command) const {
-    if (!has(name)) throw UsageError(command + ": option --" + name + " is required");
-    return values_.at(name);
-  }
-  std::string get(const std::string& name, const std::string& fallback) const {
-    return has(name) ? values_.at(name) : fallback;
-  }
-
-  /// Overwrites *value with the option's number when given; rejects text and non-finite values.
-  void number(const std::string& name, double* value) const {
-    if (!has(name)) return;
-    const std::string& text = values_.at(name);
-    errno = 0;
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
-      throw UsageError("option --" + name + ": '" + text + "' is not a number");
-    *value = v;
-  }
-
- private:
-  std::map<std::string, std::string> values_;
-};
-
-std::map<std::string, bool> merge(std::initializer_list<std::map<std::string, bool>> parts) {
-  std::map<std::string, bool> out;
-  for (const auto& p : parts) out.insert(p.begin(), p.end());
-  return out;
+std::map<std::string, bool> evalOptionTable() {
+  return mergeOptions({kTrajectoryOptions, kLoopOptions, {{"config", true}}});
 }
 
-/// Defaults, then the `eval:` section of --config, then the individual flags.
-EvalOptions optionsFrom(const Args& args) {
+EvalOptions evalOptionsFromArgs(const CliArgs& args) {
   EvalOptions o;
   if (args.has("config")) o = EvalOptions::fromReader(ConfigReader::fromFile(args.get("config", "")).child("eval"));
   auto& assoc = o.trajectory.association;
@@ -121,6 +65,8 @@ EvalOptions optionsFrom(const Args& args) {
   return o;
 }
 
+namespace {
+
 std::vector<StampedPose> readTrajectory(const std::string& path, const char* what) {
   if (!fs::exists(path)) throw std::runtime_error(std::string(what) + " file '" + path + "' does not exist");
   std::vector<StampedPose> poses = readTumFile(path);
@@ -129,12 +75,12 @@ std::vector<StampedPose> readTrajectory(const std::string& path, const char* wha
 }
 
 int commandTraj(const std::vector<std::string>& argv, std::ostream& out) {
-  const Args args(argv, 1, merge({kTrajectoryOptions, {{"gt", true}, {"est", true}, {"plots", true},
+  const CliArgs args(argv, 1, mergeOptions({kTrajectoryOptions, {{"gt", true}, {"est", true}, {"plots", true},
                                                        {"label", true}, {"config", true}}}),
                   "traj");
   const std::string gt_path = args.required("gt", "traj");
   const std::string est_path = args.required("est", "traj");
-  const EvalOptions options = optionsFrom(args);
+  const EvalOptions options = evalOptionsFromArgs(args);
   const std::string label = args.get("label", fs::path(est_path).stem().string());
   const auto gt = readTrajectory(gt_path, "ground-truth");
   const auto est = readTrajectory(est_path, "estimate");
@@ -147,11 +93,11 @@ int commandTraj(const std::vector<std::string>& argv, std::ostream& out) {
 }
 
 int commandLoops(const std::vector<std::string>& argv, std::ostream& out) {
-  const Args args(argv, 1, merge({kLoopOptions, {{"gt", true}, {"loops", true}, {"plots", true}, {"config", true}}}),
+  const CliArgs args(argv, 1, mergeOptions({kLoopOptions, {{"gt", true}, {"loops", true}, {"plots", true}, {"config", true}}}),
                   "loops");
   const std::string gt_path = args.required("gt", "loops");
   const std::string loops_path = args.required("loops", "loops");
-  const EvalOptions options = optionsFrom(args);
+  const EvalOptions options = evalOptionsFromArgs(args);
   const auto gt = readTrajectory(gt_path, "ground-truth");
   const auto records = readLoopCsv(loops_path);
   const LoopEvaluation ev = evaluateLoops(records, gt, options.loops, options.revisit);
@@ -163,12 +109,12 @@ int commandLoops(const std::vector<std::string>& argv, std::ostream& out) {
 }
 
 int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args(argv, 1,
-                  merge({kTrajectoryOptions, kLoopOptions, {{"sequence", true}, {"out", true}, {"config", true}}}),
+  const CliArgs args(argv, 1,
+                  mergeOptions({kTrajectoryOptions, kLoopOptions, {{"sequence", true}, {"out", true}, {"config", true}}}),
                   "run");
   const std::string seq_dir = args.required("sequence", "run");
   const std::string out_dir = args.required("out", "run");
-  const EvalOptions options = optionsFrom(args);
+  const EvalOptions options = evalOptionsFromArgs(args);
   const SequencePaths seq = SequencePaths::resolve(seq_dir);
   if (seq.gt.empty())
     throw std::runtime_error("sequence '" + seq_dir + "' has no ground truth '" + seq.name + "_gt.tum'");
@@ -266,6 +212,11 @@ usage:
                   [--revisit-radius 1.5] [--revisit-gap 60] [--revisit-margin 0] [--plots DIR]
                   [--config FILE]
   vims_eval run --sequence DIR --out OUT [any option of traj and loops except --gt/--est/--loops/--plots/--label]
+  vims_eval ablation --sequence DIR --out OUT [--jobs 2] [--modes vi_slam,no_sonar,no_alter,no_orb,no_geom,full]
+                     [--offline PATH] [--offline-config FILE] [--package-root DIR] [--no-run] [--no-figures]
+                     [evaluation options as run]
+  vims_eval place-recognition --sequence DIR --orb-run RUN --brief-run RUN --out OUT [--radius 1.5]
+                              [--config FILE] [--package-root DIR]
 
   traj   associate, align and report ATE (m and % of distance), rotation RMSE, RPE per 10 m, Sim3
          scale; the last line is 'VIMS_EVAL key=value ...'. --align defaults to all (se3 first).
@@ -273,13 +224,20 @@ usage:
          T_match_query), find revisit events in the ground truth; last line 'VIMS_EVAL_LOOPS ...'.
   run    evaluate OUT/vio.tum, OUT/global.tum and OUT/loops.csv (those present) against the
          sequence's <seq>_gt.tum; writes OUT/eval.yaml and OUT/plots/*.png.
+  ablation  runs vims_offline (next to this executable, or --offline) once per variant into
+         OUT/<mode>/ (--jobs at a time, --map-save OUT/<mode>/map.vimsmap), evaluates global.tum (SE3),
+         vio.tum and loops.csv, prints the paper's table, writes OUT/ablation.md, OUT/ablation.csv,
+         OUT/trajectories_top.png, OUT/multiscale_map.png and OUT/place_recognition/.
+  place-recognition  precision-recall curves and recognition matrices of Mag-ORB, Mag, ORB and
+         BRIEF from an ORB run's map.vimsmap + mag_signatures.csv and a BRIEF run's map.vimsmap.
   --config FILE reads the 'eval:' section of a YAML file first; flags override it.
 
 exit status: 0 ok, 1 evaluation failed (missing or malformed input, no association), 2 bad usage.
 )";
 }
 
-int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+               const std::map<std::string, EvalCommand>& extra_commands) {
   if (args.empty()) {
     err << evalUsage();
     return kExitUsage;
@@ -293,7 +251,9 @@ int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ost
     if (command == "traj") return commandTraj(args, out);
     if (command == "loops") return commandLoops(args, out);
     if (command == "run") return commandRun(args, out, err);
-    throw UsageError("unknown command '" + command + "' (expected traj, loops or run)");
+    const auto extra = extra_commands.find(command);
+    if (extra != extra_commands.end()) return extra->second(args, out, err);
+    throw UsageError("unknown command '" + command + "' (expected traj, loops, run, ablation or place-recognition)");
   } catch (const UsageError& e) {
     err << "vims_eval: " << e.what() << "\n(see vims_eval --help)\n";
     return kExitUsage;

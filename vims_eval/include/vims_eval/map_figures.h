@@ -1,0 +1,46 @@
+#pragma once
+/// @file map_figures.h
+/// @brief The paper's trajectory and map figures from vims_offline outputs: ground truth and
+/// several global trajectories in one top view, and the multi-scale map (visual submaps at
+/// their keyframes, magnetic submaps as circles of their radius) of a saved map file.
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vims_common/trajectory_io.h"
+#include "vims_pose_graph/multiscale_map.h"
+
+namespace vims {
+namespace eval {
+
+/// The source tree vims_eval was built from (root for the committed vocabularies).
+std::string defaultPackageRoot();
+
+/// A map saved by `vims_offline --map-save` with the vocabulary it was built with.
+struct LoadedMap {
+  std::shared_ptr<const BinaryVocabulary> vocabulary;
+  std::unique_ptr<MultiScaleMap> map;
+};
+
+/// Loads a saved map. `descriptor` ("orb" or "brief") selects the committed vocabulary of
+/// PoseGraphManagerOptions (vocabulary_orb / vocabulary_brief, relative to package_root).
+/// Throws MapFileError / VocabularyFileError / std::invalid_argument with the reason.
+LoadedMap loadSavedMap(const std::string& map_file, const std::string& descriptor, const std::string& package_root);
+
+/// Top view of the ground truth and each (label, TUM file) estimate after SE3 alignment to
+/// it (legend gives each ATE RMSE). Writes `png_path`; returns it. Throws when an estimate
+/// cannot be read or aligned.
+std::string writeTrajectoryComparison(const std::vector<StampedPose>& gt,
+                                      const std::vector<std::pair<std::string, std::string>>& estimates,
+                                      const std::string& png_path);
+
+/// Top view of a saved map in its world frame: keyframe path, visual submaps (keyframes with a
+/// visual submap) as dots, magnetic submaps as circles of their radius around their position
+/// (their tied keyframe's) with a centre marker. Writes `png_path`; returns it.
+std::string writeMultiScaleMapFigure(const std::string& map_file, const std::string& descriptor,
+                                     const std::string& package_root, const std::string& png_path);
+
+}  // namespace eval
+}  // namespace vims
