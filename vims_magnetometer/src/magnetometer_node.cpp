@@ -18,6 +18,8 @@
 #include <sensor_msgs/MagneticField.h>
 #include <vims/MagneticSignature.h>
 
+#include <cmath>
+
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
 #include "vims_magnetometer/signature_extractor.h"
@@ -25,6 +27,24 @@
 #include "vims_ros/ros_logger.h"
 
 namespace {
+
+/// Non-finite entries become 0 (returns false when there were any).
+bool zeroNonFinite(Eigen::Vector3d* v) {
+  bool finite = true;
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite((*v)[i])) {
+      (*v)[i] = 0.0;
+      finite = false;
+    }
+  }
+  return finite;
+}
+
+bool zeroNonFinite(double* x) {
+  if (std::isfinite(*x)) return true;
+  *x = 0.0;
+  return false;
+}
 
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
   geometry_msgs::Vector3 out;
@@ -75,7 +95,14 @@ class MagnetometerNode {
     signatures_.clear();
     geomagnetic_.clear();
     extractor_.feedMag(sample, &signatures_, &geomagnetic_);
+    // Nothing non-finite leaves the node: a geomagnetic sample with NaN/Inf (extreme input can
+    // overflow the averages) is dropped; a signature's non-finite values become 0 and the window
+    // is marked invalid (it carries no measurement then, as vims::toSignatureWindow reads it).
     for (const vims::GeomagneticSample& g : geomagnetic_) {
+      if (!g.field_b.allFinite() || !std::isfinite(g.std_per_axis)) {
+        ROS_WARN_STREAM_THROTTLE(5.0, "non-finite geomagnetic field at t=" << g.t << " not published");
+        continue;
+      }
       sensor_msgs::MagneticField out;
       out.header.stamp = ros::Time(g.t);
       out.header.frame_id = body_frame_;
@@ -84,7 +111,15 @@ class MagnetometerNode {
       out.magnetic_field_covariance = {var, 0, 0, 0, var, 0, 0, 0, var};
       geomagnetic_pub_.publish(out);
     }
-    for (const vims::SignatureWindow& s : signatures_) {
+    for (vims::SignatureWindow& s : signatures_) {
+      bool finite = zeroNonFinite(&s.amplitude_enu);
+      finite = zeroNonFinite(&s.geomagnetic_body) && finite;
+      finite = zeroNonFinite(&s.snr) && finite;
+      finite = zeroNonFinite(&s.frequency_hz) && finite;
+      if (!finite) {
+        ROS_WARN_STREAM_THROTTLE(5.0, "signature window at t=" << s.t << " has non-finite values: published as invalid");
+        s.valid = false;
+      }
       vims::MagneticSignature out;
       out.header.stamp = ros::Time(s.t);
       out.header.frame_id = world_frame_;

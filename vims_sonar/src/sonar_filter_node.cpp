@@ -2,7 +2,8 @@
 //
 // Subscribes  <topics.sonar of the sequence YAML> (sensor_msgs/Range, default /sonar/range)
 // Publishes   sonar/filtered (sensor_msgs/Range): one message per *accepted* range, stamped with
-//             the input's stamp, range = the filter's trend-following median. Rejected ranges
+//             the input's stamp, range = the filter's trend-following median, min/max_range =
+//             the sequence YAML's sonar limits. Rejected ranges
 //             (outliers, dropouts, samples held while the filter acquires) are not published, so
 //             consumers (the VIO's altitude factor) never see them.
 // Params      ~sequence_config (string, required): the sequence YAML (noise, min/max range, topics)
@@ -11,6 +12,8 @@
 //             ~sonar_topic     (string, optional): input topic instead of topics.sonar
 #include <ros/ros.h>
 #include <sensor_msgs/Range.h>
+
+#include <cmath>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
@@ -25,6 +28,8 @@ class SonarFilterNode {
   SonarFilterNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::SonarFilterOptions& options,
                   const std::string& input_topic)
       : filter_(options, sequence.sonar, vims::rosLogger()) {
+    template_.min_range = static_cast<float>(sequence.sonar.min_range);
+    template_.max_range = static_cast<float>(sequence.sonar.max_range);
     pub_ = nh.advertise<sensor_msgs::Range>("sonar/filtered", 50);
     sub_ = nh.subscribe(input_topic, 50, &SonarFilterNode::onRange, this);
     ROS_INFO_STREAM("sonar filter: " << sub_.getTopic() << " -> " << pub_.getTopic() << ", noise "
@@ -39,11 +44,18 @@ class SonarFilterNode {
       ROS_WARN_STREAM_THROTTLE(5.0, "sonar range rejected: " << why);
       return;
     }
-    template_ = *msg;  // frame, field of view and limits are properties of the sensor
+    // Frame, radiation type and field of view describe the sensor: kept from its messages, except
+    // a non-finite field of view (the last finite one stays). The limits are the calibration's,
+    // the ones the filter judges ranges against. So no input field can put NaN/Inf in the output.
+    template_.header.frame_id = msg->header.frame_id;
+    template_.radiation_type = msg->radiation_type;
+    if (std::isfinite(msg->field_of_view)) template_.field_of_view = msg->field_of_view;
     results_.clear();
     filter_.feed(sample, &results_);
     for (const vims::SonarFilterResult& r : results_) {
-      if (!r.accepted) continue;
+      // An accepted range always has a finite estimate; checked anyway, as nothing non-finite
+      // may leave the node.
+      if (!r.accepted || !r.has_estimate || !std::isfinite(r.filtered)) continue;
       sensor_msgs::Range out = template_;
       out.header.stamp = ros::Time(r.t);
       out.range = static_cast<float>(r.filtered);

@@ -1,0 +1,145 @@
+#!/usr/bin/python3
+"""Soak benchmark (issue 6): memory of vims_offline over a long (default 1 h) simulated sequence.
+
+Simulates a tank sequence (or reuses one), runs vims_offline on it and samples every --interval
+seconds of wall time the process's resident set (VmRSS and VmHWM of /proc/PID/status) and how
+far it has read the bag (rchar of /proc/PID/io over the bag size, so each sample is placed on the
+sequence clock). Writes WORK/soak.csv (wall_s, bag_fraction, sequence_s, rss_mb, hwm_mb) and
+reports RSS per quarter of the sequence, the growth rate of each quarter [MB per 1000 s of
+sequence] and whether memory stops growing: the last quarter grows by less than
+--plateau-pct percent (default 5) of the RSS at its start.
+
+    bench/soak.py --work /work/data/faults/soak [--duration 3600] [--seed 1] [--reuse DIR]
+                  [--interval 10] [--build _build] [--keep-sequence]
+
+Documented in docs/benchmarks_growth.md.
+"""
+import argparse
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import yaml
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def read_status_mb(pid):
+    """(VmRSS, VmHWM) in MB, or None when the process is gone."""
+    try:
+        values = {}
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith(("VmRSS:", "VmHWM:")):
+                    key, value = line.split(":", 1)
+                    values[key] = int(value.split()[0]) / 1024.0
+        return values.get("VmRSS"), values.get("VmHWM")
+    except (FileNotFoundError, ProcessLookupError):
+        return None
+
+
+def read_rchar(pid):
+    try:
+        with open(f"/proc/{pid}/io") as f:
+            for line in f:
+                if line.startswith("rchar:"):
+                    return int(line.split()[1])
+    except (FileNotFoundError, ProcessLookupError, PermissionError):
+        pass
+    return None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--work", required=True, help="folder for the sequence, the output and soak.csv (not in the repo)")
+    ap.add_argument("--duration", type=float, default=3600.0)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--reuse", help="an existing sequence directory instead of simulating one")
+    ap.add_argument("--interval", type=float, default=10.0, help="sampling period [s of wall time]")
+    ap.add_argument("--plateau-pct", type=float, default=5.0)
+    ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
+    ap.add_argument("--keep-sequence", action="store_true")
+    args = ap.parse_args()
+
+    bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
+    work = os.path.abspath(args.work)
+    if work.startswith(ROOT + os.sep):
+        sys.exit("soak.py: --work must be outside the repository")
+    os.makedirs(work, exist_ok=True)
+    label = f"tank{args.duration:g}"
+    sequence = os.path.abspath(args.reuse) if args.reuse else os.path.join(work, label)
+    name = os.path.basename(os.path.normpath(sequence))
+    bag = os.path.join(sequence, name + ".bag")
+    if not args.reuse and not os.path.exists(bag):
+        print(f"[soak] simulating {label} ...", flush=True)
+        with open(os.path.join(work, "sim.log"), "w") as log:
+            code = subprocess.call([os.path.join(bin_dir, "vims_sim"), "--scenario", "tank", "--duration",
+                                    f"{args.duration:g}", "--seed", str(args.seed), "--lz4", "--out", sequence],
+                                   stdout=log, stderr=subprocess.STDOUT)
+        if code != 0:
+            sys.exit(f"soak.py: vims_sim failed, see {work}/sim.log")
+    bag_bytes = os.path.getsize(bag)
+    with open(os.path.join(sequence, name + "_truth.yaml")) as f:
+        duration = float(yaml.safe_load(f)["duration"])
+
+    out = os.path.join(work, "out")
+    shutil.rmtree(out, ignore_errors=True)
+    print(f"[soak] vims_offline on {sequence}, sampling every {args.interval:g} s ...", flush=True)
+    start = time.monotonic()
+    samples = []
+    with open(os.path.join(work, "offline.log"), "w") as log:
+        proc = subprocess.Popen([os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out],
+                                stdout=log, stderr=subprocess.STDOUT)
+        while proc.poll() is None:
+            status = read_status_mb(proc.pid)
+            rchar = read_rchar(proc.pid)
+            if status and status[0] is not None:
+                fraction = min(1.0, rchar / bag_bytes) if rchar is not None else float("nan")
+                samples.append((time.monotonic() - start, fraction, fraction * duration, status[0], status[1]))
+            time.sleep(args.interval)
+    wall = time.monotonic() - start
+    if proc.returncode != 0:
+        sys.exit(f"soak.py: vims_offline failed ({proc.returncode}), see {work}/offline.log")
+    with open(os.path.join(work, "soak.csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["wall_s", "bag_fraction", "sequence_s", "rss_mb", "hwm_mb"])
+        for s in samples:
+            writer.writerow([f"{s[0]:.1f}", f"{s[1]:.4f}", f"{s[2]:.1f}", f"{s[3]:.1f}", f"{s[4]:.1f}"])
+    with open(os.path.join(out, "summary.yaml")) as f:
+        summary = yaml.safe_load(f)
+
+    def rss_at(seq_s):
+        """RSS of the last sample at or before sequence time seq_s."""
+        before = [s for s in samples if s[2] <= seq_s]
+        return before[-1][3] if before else float("nan")
+
+    print(f"[soak] {duration:g} s of sequence in {wall:.0f} s wall; {len(samples)} samples; "
+          f"peak RSS {max(s[4] for s in samples):.1f} MB; keyframes {summary['pose_graph']['keyframes']}")
+    print("| quarter | sequence s | RSS at end [MB] | growth [MB per 1000 s] |")
+    print("| --- | --- | --- | --- |")
+    quarters = [duration * q / 4.0 for q in range(5)]
+    growth = []
+    for q in range(4):
+        # Quarter 1 starts at the first sample after start-up (1 % of the bag read: the vocabulary
+        # and the first buffers are loaded), not at the empty process.
+        started = [s for s in samples if s[1] > 0.01] or samples
+        a, b = rss_at(quarters[q]) if q > 0 else started[0][3], rss_at(quarters[q + 1] - 1e-6)
+        if q == 3:
+            b = samples[-1][3]
+        rate = (b - a) / (quarters[q + 1] - quarters[q]) * 1000.0
+        growth.append((a, b))
+        print(f"| {q + 1} | {quarters[q]:.0f}-{quarters[q + 1]:.0f} | {b:.1f} | {rate:.1f} |")
+    a, b = growth[3]
+    pct = 100.0 * (b - a) / a if a > 0 else float("nan")
+    verdict = "stops growing" if pct < args.plateau_pct else "still growing"
+    print(f"[soak] last quarter: {a:.1f} -> {b:.1f} MB ({pct:+.1f} %): memory {verdict} "
+          f"(plateau threshold {args.plateau_pct:g} %)")
+    if not args.reuse and not args.keep_sequence:
+        shutil.rmtree(sequence, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
