@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -403,9 +404,10 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     if (v.has_pose) a.T_match_query = v.T_match_query;
     a.accepted = v.stage == LoopStage::kAccepted;
     res.attempts.push_back(a);
-    logger_->debug(kComponent, VIMS_STR("loop attempt t_query=" << query.t << " t_match=" << a.t_match
-                                        << " bow=" << score << " matches=" << v.num_matches << " inliers="
-                                        << v.num_inliers << " -> " << toString(v.stage)));
+    logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop attempt t_query=" << query.t
+                                                  << " t_match=" << a.t_match << " bow=" << score
+                                                  << " matches=" << v.num_matches << " inliers=" << v.num_inliers
+                                                  << " -> " << toString(v.stage)));
     if (a.accepted) {
       res.accepted = a;
       break;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <stdexcept>
 
 #include "vims_pose_graph/angles.h"
@@ -435,10 +436,11 @@ void PoseGraphManager::processPending(PendingKeyframe& p) {
   if (mode_.magnetic_stage && !signature) {
     if (!magnetometer_heard)
       logger_->warnThrottled(kComponent, "magnetometer_silent", p.t, 10.0,
-                             VIMS_STR("no magnetic signature near t=" << p.t
+                             VIMS_STR(std::fixed << std::setprecision(3) << "no magnetic signature near t=" << p.t
                                       << " (magnetometer silent): magnetic stage skipped, loops from vision alone"));
     else
-      logger_->debug(kComponent, VIMS_STR("no valid signature near t=" << p.t << " (coil not heard): magnetic stage skipped"));
+      logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "no valid signature near t=" << p.t
+                                                    << " (coil not heard): magnetic stage skipped"));
   }
 
   LoopQuery query;
@@ -495,8 +497,9 @@ void PoseGraphManager::acceptLoop(const LoopAttempt& a) {
   }
   map_.addLoopEdge(m, q, a.T_match_query);
   ++stats_.loops_accepted;
-  logger_->info(kComponent, VIMS_STR("loop accepted: t_query=" << a.t_query << " t_match=" << a.t_match << " inliers="
-                                     << a.inliers << " bow=" << a.bow_score));
+  logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
+                                                 << " t_match=" << a.t_match << " inliers=" << a.inliers
+                                                 << " bow=" << a.bow_score));
   requestOptimisation();
 }
 
