@@ -141,6 +141,19 @@ struct ResidualSpec {
   bool sonar = false;                   ///< Cauchy (sonar) or Huber (reprojection) loss
   std::vector<double*> blocks;
 };
+
+/// Solver settings of the window solves: a few dogleg iterations from the previous solution,
+/// single-threaded (the offline runner's determinism), with the optional wall-clock cap.
+ceres::Solver::Options windowSolverOptions(const EstimatorOptions& options, ceres::LinearSolverType linear_solver) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = linear_solver;
+  solver_options.trust_region_strategy_type = ceres::DOGLEG;
+  solver_options.max_num_iterations = options.max_solver_iterations;
+  if (options.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options.max_solver_time_s;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  return solver_options;
+}
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -885,15 +898,8 @@ void VioEstimator::optimize(VioFrameResult* result) {
   }
   if (n_features == 0 && options_.estimate_td && td_observable) problem.SetParameterBlockConstant(td_);  // no visual factor
 
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-  solver_options.trust_region_strategy_type = ceres::DOGLEG;
-  solver_options.max_num_iterations = options_.max_solver_iterations;
-  if (options_.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
+  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_SCHUR), &problem, &summary);
   result->features_in_window = n_features;
   result->sonar_factors = n_sonar;
 }
@@ -950,15 +956,9 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
     ++n_features;
   }
 
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;  // 15 unknowns: nothing to eliminate
-  solver_options.trust_region_strategy_type = ceres::DOGLEG;
-  solver_options.max_num_iterations = options_.max_solver_iterations;
-  if (options_.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
+  // 15 unknowns: nothing to eliminate.
+  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_QR), &problem, &summary);
   result->features_in_window = n_features;
   result->sonar_factors = 0;
 }

@@ -24,6 +24,7 @@
 #include "vims_eval/map_figures.h"
 #include "vims_eval/metrics.h"
 #include "vims_eval/place_recognition.h"
+#include "vims_eval/report.h"
 #include "vims_eval/revisit.h"
 
 extern char** environ;
@@ -34,12 +35,7 @@ namespace vims {
 namespace eval {
 namespace {
 
-std::string fixed(double v, int decimals) {
-  if (!std::isfinite(v)) return "nan";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return formatFixed(v, decimals); }
 
 /// Full precision for the CSV (what a spreadsheet or a script re-reads).
 std::string precise(double v) {

@@ -7,6 +7,7 @@
 
 #include "vims_eval/metrics.h"
 #include "vims_eval/plot.h"
+#include "vims_eval/report.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;
@@ -15,11 +16,7 @@ namespace vims {
 namespace eval {
 namespace {
 
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return formatFixed(v, decimals); }
 
 void ensureParent(const std::string& path) {
   const fs::path parent = fs::path(path).parent_path();

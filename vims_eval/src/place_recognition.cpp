@@ -23,6 +23,7 @@
 #include "vims_eval/cli.h"
 #include "vims_eval/map_figures.h"
 #include "vims_eval/plot.h"
+#include "vims_eval/report.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;
@@ -33,12 +34,7 @@ namespace {
 
 constexpr float kNever = -std::numeric_limits<float>::infinity();
 
-std::string fixed(double v, int decimals) {
-  if (!std::isfinite(v)) return "nan";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return formatFixed(v, decimals); }
 
 std::string precise(double v) {
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";

@@ -17,14 +17,7 @@ namespace vims {
 namespace eval {
 namespace {
 
-/// Fixed-point text of a number, "nan" for a missing value, so summary lines stay parseable
-/// (Python's float() and awk both read "nan").
-std::string num(double v, int decimals) {
-  if (!std::isfinite(v)) return "nan";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
+std::string num(double v, int decimals) { return formatFixed(v, decimals); }
 
 std::string deltaTag(double delta_m) {
   char buf[32];
@@ -112,6 +105,13 @@ void printTrajectoryReport(std::ostream& out, const TrajectoryEvaluation& ev) {
   }
   if (ev.primary().rpe.pairs.empty())
     out << "   (no RPE: the ground-truth path is shorter than two " << num(delta, 1) << " m segments)\n";
+}
+
+std::string formatFixed(double v, int decimals) {
+  if (!std::isfinite(v)) return "nan";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
 }
 
 std::string trajectorySummaryLine(const TrajectoryEvaluation& ev) {

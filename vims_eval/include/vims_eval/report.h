@@ -22,6 +22,10 @@ void printTrajectoryReport(std::ostream& out, const TrajectoryEvaluation& ev);
 ///  ate_<mode>_m=... ate_<mode>_pct=... (per requested alignment) [scale=... when sim3]
 ///  rot_rmse_deg=... rpe<delta>_trans_m=... rpe<delta>_trans_pct=... rpe<delta>_rot_deg=...
 ///  rpe<delta>_pairs=...`; rot and rpe use the primary alignment; a value without data is `nan`.
+/// Fixed-point text of a number with `decimals` digits, "nan" for a non-finite value, so tables
+/// and summary lines stay parseable (Python's float() and awk both read "nan").
+std::string formatFixed(double v, int decimals);
+
 std::string trajectorySummaryLine(const TrajectoryEvaluation& ev);
 
 YAML::Node trajectoryToYaml(const TrajectoryEvaluation& ev);
