@@ -24,6 +24,7 @@
 #include "vims_eval/map_figures.h"
 #include "vims_eval/plot.h"
 #include "vims_eval/report.h"
+#include "vims_magnetometer/signature_extractor.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;
@@ -327,7 +328,7 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
       std::vector<std::pair<double, std::size_t>> passed;
       for (std::size_t s = 0; s < submaps.size(); ++s) {
         if (!historical(x, submaps[s].tied_node)) continue;
-        const double d = (*sig[x] - submaps[s].signature_enu).norm();
+        const double d = signatureDistance(*sig[x], submaps[s].signature_enu);
         if (d <= options.loop.mag_distance_relative * submaps[s].signature_enu.norm() + options.loop.mag_distance_floor_tesla)
           passed.emplace_back(d, s);
       }

@@ -29,6 +29,14 @@ Eigen::Vector3d canonicalSignature(const Eigen::Vector3d& amplitude) {
   return amplitude[dominant] < 0.0 ? Eigen::Vector3d(-amplitude) : amplitude;
 }
 
+double signatureDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::min((a - b).norm(), (a + b).norm());
+}
+
+Eigen::Vector3d alignedSignature(const Eigen::Vector3d& s, const Eigen::Vector3d& reference) {
+  return s.dot(reference) < 0.0 ? Eigen::Vector3d(-s) : s;
+}
+
 MovingAverageLength chooseMovingAverage(double rate_hz, double coil_frequency_hz, int min_periods) {
   MovingAverageLength best;
   best.residual = 1e300;

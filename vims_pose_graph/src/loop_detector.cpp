@@ -10,6 +10,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "vims_magnetometer/signature_extractor.h"
+
 namespace vims {
 
 namespace {
@@ -324,7 +326,7 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     std::vector<std::pair<double, uint32_t>> passed;
     for (const MagneticSubmap& s : map.magneticSubmaps()) {
       if (s.tied_node == query.node || isRecent(map, query.node, s.tied_node)) continue;
-      const double d = (s_q - s.signature_enu).norm();
+      const double d = signatureDistance(s_q, s.signature_enu);
       scored.emplace_back(d, s.id);
       if (d <= options_.mag_distance_relative * s.signature_enu.norm() + options_.mag_distance_floor_tesla)
         passed.emplace_back(d, s.id);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <numeric>
 
+#include "vims_magnetometer/signature_extractor.h"
+
 namespace vims {
 
 std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<PlacedSignature>& members,
@@ -15,8 +17,9 @@ std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<Plac
   const size_t h = static_cast<size_t>(options.smoothing_half_window);
   const size_t first = median >= h ? median - h : 0;
   const size_t last = std::min(n - 1, median + h);
+  // Members' signs are aligned to the median one before averaging (see signatureDistance).
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (size_t i = first; i <= last; ++i) sum += members[i].signature_enu;
+  for (size_t i = first; i <= last; ++i) sum += alignedSignature(members[i].signature_enu, members[median].signature_enu);
   const Eigen::Vector3d signature = sum / static_cast<double>(last - first + 1);
 
   // Radius: grow a disc around the median member (horizontal distance: the seabed the camera
@@ -31,7 +34,7 @@ std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<Plac
   const double tolerance = options.max_relative_variation * signature.norm();
   double radius = 0.0;
   for (size_t i : order) {
-    if ((members[i].signature_enu - signature).norm() > tolerance) break;
+    if (signatureDistance(members[i].signature_enu, signature) > tolerance) break;
     radius = distance[i];
   }
   // The members only sample the field along the path: beyond the nearer end of the group
@@ -67,7 +70,7 @@ std::optional<MagneticSubmapDraft> MagneticSubmapBuilder::add(const PlacedSignat
     const PlacedSignature& reference = open_.front();
     const bool fits = s.session == reference.session && s.t - open_.back().t <= options_.max_time_gap_s &&
                       s.t >= open_.back().t &&
-                      (s.signature_enu - reference.signature_enu).norm() <=
+                      signatureDistance(s.signature_enu, reference.signature_enu) <=
                           options_.max_relative_variation * reference.signature_enu.norm() &&
                       open_.size() < static_cast<size_t>(options_.max_members);
     if (!fits) {

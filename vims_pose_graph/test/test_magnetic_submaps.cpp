@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "vims_magnetometer/signature_extractor.h"
 #include "vims_pose_graph/magnetic_submap.h"
 
 namespace vims {
@@ -125,6 +126,27 @@ TEST(MagneticSubmaps, WeakSignaturesGapsAndSessionsCloseGroups) {
   few.min_amplitude_tesla = 0.0;
   few.min_members = 100;
   EXPECT_TRUE(build(pass(coil, -1.0, 1.0), few).empty());
+}
+
+TEST(MagneticSubmaps, SignOfTheSignatureDoesNotSplitOrBiasSubmaps) {
+  // The extractor's sign follows the dominant axis, so a pass where two components swap
+  // dominance flips the whole vector. Flipping alternate members must not change the submaps.
+  const Eigen::Vector3d coil(0.0, 0.0, 0.0);
+  const MagneticSubmapOptions o;
+  const std::vector<PlacedSignature> signatures = pass(coil, -12.0, 12.0);
+  std::vector<PlacedSignature> flipped = signatures;
+  for (size_t i = 0; i < flipped.size(); i += 2) flipped[i].signature_enu = -flipped[i].signature_enu;
+  const std::vector<MagneticSubmapDraft> a = build(signatures, o);
+  const std::vector<MagneticSubmapDraft> b = build(flipped, o);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].num_members, b[i].num_members);
+    EXPECT_NEAR(a[i].radius_m, b[i].radius_m, 1e-12);
+    EXPECT_NEAR(signatureDistance(a[i].signature_enu, b[i].signature_enu), 0.0, 1e-6 * a[i].signature_enu.norm());
+  }
+  EXPECT_DOUBLE_EQ(signatureDistance(Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(-1, -2, -3)), 0.0);
+  EXPECT_DOUBLE_EQ(signatureDistance(Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0)), std::sqrt(2.0));
+  EXPECT_TRUE(alignedSignature(Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(2, 1, 0)).isApprox(Eigen::Vector3d(1, 0, 0)));
 }
 
 TEST(MagneticSubmaps, SummarySmoothsAroundTheMedianAndWalksTheRadiusOutwards) {

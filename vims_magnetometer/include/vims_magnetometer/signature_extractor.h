@@ -76,6 +76,15 @@ struct GeomagneticSample {
 /// for evaluation): the vector or its negative, whichever has a positive dominant (largest |.|) component.
 Eigen::Vector3d canonicalSignature(const Eigen::Vector3d& amplitude);
 
+/// A signature is a field amplitude up to sign (the coil's phase is unknown): the convention
+/// above flips the whole vector wherever the dominant axis changes (e.g. |E| = |N| on the path),
+/// so two windows of the same place may carry opposite signs. Compare and average signatures
+/// only through these two functions.
+/// Distance of two signatures: min(|a - b|, |a + b|) [T].
+double signatureDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+/// `s` or -s, whichever is nearer to `reference` (to average signatures of one place).
+Eigen::Vector3d alignedSignature(const Eigen::Vector3d& s, const Eigen::Vector3d& reference);
+
 struct MovingAverageLength {
   int periods = 0;         ///< coil periods covered
   int samples = 0;         ///< N
