@@ -26,7 +26,8 @@ struct FeatureObservation {
   /// Undistorted normalised image coordinates (x/z, y/z) of the feature in the camera optical
   /// frame, as measured at the image stamp.
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();
-  /// d(uv)/dt on the normalised image plane [1/s], from the tracker (0 if unknown: no td effect).
+  /// d(uv)/dt on the normalised image plane [1/s] at the state time; the VIO predicts it from its
+  /// state (a difference of the tracker's positions would bias td) (0 if unknown: no td effect).
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
   /// td used to place this frame's state time (t_state = t_stamp - td_frame) [s].
   double td_frame = 0.0;

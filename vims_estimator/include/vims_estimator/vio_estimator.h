@@ -133,6 +133,11 @@ class VioEstimator {
   void emitKeyframe(Frame& frame);
   void pruneImu();
   Eigen::Vector3d featureWorld(const Feature& feature) const;
+  /// Sets every window observation's image velocity (the td correction's direction) to the one
+  /// the current state predicts (docs/estimator.md, "Time offset td").
+  void predictImageVelocities();
+  /// Gyroscope reading at t (linear interpolation of the buffered samples; nearest at the ends).
+  Eigen::Vector3d gyroAt(double t) const;
   static bool priorTouches(const MarginalizationPrior& prior, const Frame* frame);
   Eigen::Isometry3d extrinsicCamera() const;
 
@@ -166,7 +171,6 @@ class VioEstimator {
   bool session_started_ = false;
   double last_good_tracking_t_ = 0.0;
   double last_frame_stamp_ = -1e300;
-  double last_tracked_stamp_ = -1e300;  ///< stamp of the previous frame processed
   double last_td_log_t_ = -1e300;       ///< stamp of the last td log line (estimate_td)
 
   std::vector<VioFrameResult> results_;
