@@ -4,10 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
-#include <iomanip>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 #include "vims_estimator/factors/imu_factor.h"
@@ -181,6 +182,7 @@ void VioEstimator::reset(const std::string& why) {
   features_.clear();
   priors_.clear();
   vi_init_frames_.clear();
+  seabed_fix_.reset();  // a new session has a new frame l
 }
 
 void VioEstimator::feedImu(const ImuSample& sample) {
@@ -631,6 +633,7 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   } else {
     optimizeNewest(&result);
   }
+  if (options_.use_sonar) updateSeabedFix();
   if (options_.estimate_td && tracked.t - last_td_log_t_ >= 30.0) {
     last_td_log_t_ = tracked.t;
     logger_->info(kComponent, VIMS_STR("camera-IMU time offset td = " << std::fixed << std::setprecision(4) << td_[0]
@@ -735,13 +738,21 @@ void VioEstimator::predictImageVelocities() {
 
 bool VioEstimator::seabedDepth(const Feature& feature, double* lambda) const {
   const Frame& a = *feature.anchor;
-  if (!a.sonar_range) return false;
   const Eigen::Isometry3d T_l_b = a.T_l_b();
+  double seabed_height = 0.0;
+  const SonarDepthOptions& sonar_depth = options_.factors.sonar_depth;
+  if (a.sonar_range) {
+    seabed_height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *a.sonar_range))).z();
+  } else if (seabed_fix_ && sonar_depth.carry_seabed_through_outages &&
+             (T_l_b.translation().head<2>() - seabed_fix_->xy).norm() <= sonar_depth.carry_max_distance_m) {
+    seabed_height = seabed_fix_->height;  // sonar outage: the last measured seabed
+  } else {
+    return false;
+  }
   const Eigen::Isometry3d T_l_c = T_l_b * extrinsicCamera();
-  const Eigen::Vector3d seabed = T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *a.sonar_range));
   const Eigen::Vector3d ray = T_l_c.linear() * unitBearing(a.obs.at(feature.id).fo, td_[0]);
   if (ray.z() > -kMinRayDownComponent) return false;
-  const double l = (seabed.z() - T_l_c.translation().z()) / ray.z();
+  const double l = (seabed_height - T_l_c.translation().z()) / ray.z();
   if (!(l >= options_.min_feature_depth_m && l <= options_.max_feature_depth_m)) return false;
   *lambda = l;
   return true;
@@ -805,11 +816,20 @@ bool VioEstimator::priorTouches(const MarginalizationPrior& prior, const Frame* 
 }
 
 namespace {
+/// How features are tied to the seabed: the sonar depth factor where the anchor keyframe has a
+/// range, else (outage) a seabed height factor at the last measured height, if any.
+struct SeabedTies {
+  bool use_sonar = false;
+  Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
+  double sonar_sigma = 0.05;
+  const SonarDepthOptions* options = nullptr;
+  const std::optional<SeabedFix>* carried = nullptr;
+};
+
 /// Reprojection and sonar residual blocks of one feature at the current estimate.
 template <typename FrameT, typename FeatureT>
 void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT>>& frames, double* T_b_c, double* td,
-                      const Eigen::Matrix2d& sqrt_info, bool use_sonar, const Eigen::Isometry3d& T_b_s,
-                      double sonar_sigma, const SonarDepthOptions& sonar_options, bool apply_gate,
+                      const Eigen::Matrix2d& sqrt_info, const SeabedTies& seabed, bool apply_gate,
                       std::vector<ResidualSpec>* out) {
   if (!feature.has_depth || !(feature.lambda[0] > 0.0)) return;
   FrameT* a = feature.anchor;
@@ -832,20 +852,38 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
     out->push_back(spec);
   }
   if (out->size() == first) return;  // observed in the anchor only: no constraint
-  if (use_sonar && a->sonar_range && feature.sonar_ok) {
+  if (!seabed.use_sonar || !feature.sonar_ok) return;
+  const SonarDepthOptions& options = *seabed.options;
+  if (a->sonar_range) {
     if (apply_gate) {
-      const SonarGateResult gate = sonarDepthGate(anchor, *a->sonar_range, T_b_s, T_l_bi, T_bc, feature.lambda[0],
-                                                  td[0], sonar_sigma, sonar_options);
+      const SonarGateResult gate = sonarDepthGate(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc,
+                                                  feature.lambda[0], td[0], seabed.sonar_sigma, options);
       if (!gate.consistent) feature.sonar_ok = false;
     }
     if (feature.sonar_ok) {
       ResidualSpec spec;
-      spec.cost = new SonarDepthFactor(anchor, *a->sonar_range, T_b_s, sonar_sigma);
+      spec.cost = new SonarDepthFactor(anchor, *a->sonar_range, seabed.T_b_s, seabed.sonar_sigma);
       spec.sonar = true;
       spec.blocks = {a->pose, T_b_c, feature.lambda, td};
       out->push_back(spec);
     }
+    return;
   }
+  if (!options.carry_seabed_through_outages || !*seabed.carried) return;
+  const SeabedFix& fix = **seabed.carried;
+  const double distance = (T_l_bi.translation().head<2>() - fix.xy).norm();
+  if (!(distance <= options.carry_max_distance_m)) return;
+  const double sigma = options.carriedSigma(seabed.sonar_sigma, distance);
+  // The gate's verdict on a carried height is not kept in sonar_ok: once the sonar is back the
+  // anchor's own range judges the feature afresh.
+  if (apply_gate &&
+      !seabedHeightGate(anchor, fix.height, T_l_bi, T_bc, feature.lambda[0], td[0], sigma, options).consistent)
+    return;
+  ResidualSpec spec;
+  spec.cost = new SeabedHeightFactor(anchor, fix.height, sigma);
+  spec.sonar = true;
+  spec.blocks = {a->pose, T_b_c, feature.lambda, td};
+  out->push_back(spec);
 }
 }  // namespace
 
@@ -908,11 +946,12 @@ void VioEstimator::optimize(VioFrameResult* result) {
   const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
       sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
+  const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
+                          &seabed_fix_};
   std::vector<ResidualSpec> specs;
   for (auto& [id, feature] : features_) {
     specs.clear();
-    featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, options_.use_sonar, sequence_.sonar.T_b_s,
-                     sonar_sigma_, options_.factors.sonar_depth, true, &specs);
+    featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, true, &specs);
     if (specs.empty()) continue;
     problem.AddParameterBlock(feature.lambda, 1);
     problem.SetParameterLowerBound(feature.lambda, 0, options_.min_feature_depth_m);
@@ -1000,11 +1039,35 @@ void VioEstimator::fillMissingSonarRanges() {
   const std::size_t n = frames_.size();
   if (n >= 2 && !frames_[n - 2]->sonar_range) {
     const Frame& f = *frames_[n - 2];
+    std::ostringstream fallback;
+    fallback << std::fixed << std::setprecision(3);
+    if (seabed_fix_ && options_.factors.sonar_depth.carry_seabed_through_outages)
+      fallback << "features held at the seabed height the sonar last measured (z=" << seabed_fix_->height
+               << " m at t=" << seabed_fix_->t << ") within " << options_.factors.sonar_depth.carry_max_distance_m
+               << " m of it, visual-inertial beyond";
+    else
+      fallback << "visual-inertial only until it returns";
     logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
                            VIMS_STR("sonar gap: no filtered range within " << options_.sonar_max_interpolation_gap_s
                                                                             << " s of the frame at t=" << std::fixed
-                                                                            << std::setprecision(3) << f.t_stamp
-                                                                            << ": visual-inertial only until it returns"));
+                                                                            << std::setprecision(3) << f.t_stamp << ": "
+                                                                            << fallback.str()));
+  }
+}
+
+void VioEstimator::updateSeabedFix() {
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {
+    const Frame& f = **it;
+    if (!f.sonar_range) continue;
+    if (seabed_fix_ && seabed_fix_->t > f.t_state) return;  // an older frame: keep the newer fix
+    const Eigen::Isometry3d T_l_b = f.T_l_b();
+    SeabedFix fix;
+    fix.height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range))).z();
+    fix.xy = T_l_b.translation().head<2>();
+    fix.t = f.t_state;
+    if (!std::isfinite(fix.height) || !fix.xy.allFinite()) return;
+    seabed_fix_ = fix;
+    return;
   }
 }
 
@@ -1154,12 +1217,13 @@ void VioEstimator::marginalizeOldest() {
         sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
     auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
     auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
+    const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
+                            &seabed_fix_};
     std::vector<ResidualSpec> specs;
     for (auto& [id, feature] : features_) {
       if (feature.anchor != old) continue;
       specs.clear();
-      featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, options_.use_sonar, sequence_.sonar.T_b_s,
-                       sonar_sigma_, options_.factors.sonar_depth, false, &specs);
+      featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, false, &specs);
       if (specs.empty()) continue;
       info.addParameterBlock(feature.lambda, 1, BlockManifold::kEuclidean);
       drop.push_back(feature.lambda);

@@ -216,6 +216,64 @@ TEST(FactorJacobians, SonarDepthFactor) {
   RecordProperty("worst_relative_error", test::sci(worst));
 }
 
+TEST(FactorJacobians, SeabedHeightFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(300 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_bk.translation() = randomVector(rng, 3.0);
+    const FeatureObservation anchor = randomObservation(rng);
+    const double lambda = 3.0 + randomVector(rng, 1.0).x();
+    const double td = randomVector(rng, 0.02).x();
+    const SeabedHeightFactor factor(anchor, -2.5 + randomVector(rng, 0.5).x(), 0.3);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
+                         "seabed seed " + std::to_string(seed)));
+    // Unlike the sonar factor it pins the absolute height: raising the keyframe by 0.6 m
+    // lowers the residual by 0.6 m / sigma; a horizontal move changes nothing.
+    std::vector<std::vector<double>> raised = params, moved = params;
+    raised[0][2] += 0.6;
+    moved[0][0] += 1.3;
+    EXPECT_NEAR(test::evaluateResidual(factor, raised)(0), test::evaluateResidual(factor, params)(0) - 0.6 / 0.3, 1e-9);
+    EXPECT_NEAR(test::evaluateResidual(factor, moved)(0), test::evaluateResidual(factor, params)(0), 1e-12);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
+  // With h = the height the sonar measured at this keyframe, both residuals agree; the carried
+  // sigma grows with the distance from the fix and the gate uses it.
+  std::mt19937 rng(11);
+  Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
+  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
+  T_b_s.translation() = randomVector(rng, 0.3);
+  const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+  Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+  T_l_bk.linear() = randomRotation(rng, 0.2).toRotationMatrix();
+  T_l_bk.translation() = Eigen::Vector3d(1.0, -2.0, 3.5);
+  const FeatureObservation anchor = randomObservation(rng);
+  const double range = 3.2;
+  const double h = (T_l_bk * (T_b_s * Eigen::Vector3d(0.0, 0.0, range))).z();
+  for (double lambda : {2.5, 3.5, 4.5})
+    EXPECT_NEAR(seabedHeightResidual(anchor, h, T_l_bk, T_b_c, lambda, 0.01),
+                sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, 0.01), 1e-12);
+  SonarDepthOptions options;
+  EXPECT_NEAR(options.carriedSigma(0.06, 0.0), 0.06, 1e-15);
+  EXPECT_NEAR(options.carriedSigma(0.06, 8.0), std::hypot(0.06, 0.05 * 8.0), 1e-15);
+  // 0.3 m off: inconsistent next to the fix, consistent 10 m away (sigma 0.5 m).
+  const double lambda_on = 3.5;
+  const double r_on = seabedHeightResidual(anchor, h, T_l_bk, T_b_c, lambda_on, 0.0);
+  options.gate_max_height_difference = 1.0;
+  EXPECT_FALSE(seabedHeightGate(anchor, h + 0.3 - r_on, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 0.0),
+                                options).consistent);
+  EXPECT_TRUE(seabedHeightGate(anchor, h + 0.3 - r_on, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 10.0),
+                               options).consistent);
+  EXPECT_THROW(SeabedHeightFactor(anchor, std::nan(""), 0.1), std::invalid_argument);
+  EXPECT_THROW(SeabedHeightFactor(anchor, 0.0, 0.0), std::invalid_argument);
+}
+
 TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
   // Level body 3 m above a flat seabed at z = 0, sonar and camera looking straight down.
   std::mt19937 rng(7);

@@ -14,12 +14,18 @@ TEST(FactorOptions, EmptySectionGivesDefaultsAndYamlRoundTrips) {
   changed.reprojection.pixel_sigma = 0.8;
   changed.sonar_depth.flatness_std = 0.02;
   changed.sonar_depth.gate_chi2 = 3.84;
+  changed.sonar_depth.carry_seabed_through_outages = false;
+  changed.sonar_depth.carry_slope_std = 0.1;
+  changed.sonar_depth.carry_max_distance_m = 4.0;
   changed.imu_preintegration.max_gyro_bias_change = 0.005;
   changed.marginalization.eigenvalue_relative_threshold = 1e-9;
   const FactorOptions back = FactorOptions::fromReader(ConfigReader::fromString(changed.toYaml()));
   EXPECT_DOUBLE_EQ(back.reprojection.pixel_sigma, 0.8);
   EXPECT_DOUBLE_EQ(back.sonar_depth.flatness_std, 0.02);
   EXPECT_DOUBLE_EQ(back.sonar_depth.gate_chi2, 3.84);
+  EXPECT_FALSE(back.sonar_depth.carry_seabed_through_outages);
+  EXPECT_DOUBLE_EQ(back.sonar_depth.carry_slope_std, 0.1);
+  EXPECT_DOUBLE_EQ(back.sonar_depth.carry_max_distance_m, 4.0);
   EXPECT_DOUBLE_EQ(back.imu_preintegration.max_gyro_bias_change, 0.005);
   EXPECT_DOUBLE_EQ(back.marginalization.eigenvalue_relative_threshold, 1e-9);
   EXPECT_NEAR(back.sonar_depth.sigma(0.03), std::sqrt(0.03 * 0.03 + 0.02 * 0.02), 1e-15);
@@ -39,6 +45,9 @@ TEST(FactorOptions, UnknownKeysAndBadValuesNameTheKey) {
     EXPECT_NE(std::string(e.what()).find("reprojection.pixel_sigma"), std::string::npos) << e.what();
   }
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("imu: {}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_slope_std: -0.1}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_max_distance_m: 0}")),
+               ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("marginalization: {eigenvalue_absolute_threshold: 0}")),
                ConfigError);
 }

@@ -71,6 +71,13 @@ struct VioImuState {
   Eigen::Vector3d v_odom_b = Eigen::Vector3d::Zero();
 };
 
+/// A seabed height measured by the sonar at one keyframe (gravity-aligned VIO frame).
+struct SeabedFix {
+  double height = 0.0;                          ///< z of the beam's seabed hit [m]
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  ///< horizontal position of the keyframe [m]
+  double t = 0.0;                               ///< the keyframe's state time [s]
+};
+
 class VioEstimator {
  public:
   /// Throws std::invalid_argument for unusable calibration (e.g. IMU noise not > 0).
@@ -148,6 +155,11 @@ class VioEstimator {
   Eigen::Vector3d g_l_;
   double focal_ = 1.0;
   double sonar_sigma_ = 0.05;
+  /// The seabed height the sonar last measured, in this session's frame l, and where (x, y):
+  /// carried through sonar outages (SonarDepthOptions::carry_seabed_through_outages).
+  std::optional<SeabedFix> seabed_fix_;
+  /// Refreshes seabed_fix_ from the newest window frame with a sonar range (current estimate).
+  void updateSeabedFix();
 
   std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results

@@ -13,15 +13,26 @@ double SonarDepthOptions::sigma(double range_std) const {
   return std::sqrt(range_std * range_std + flatness_std * flatness_std);
 }
 
+double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) const {
+  const double slope_part = carry_slope_std * distance_m;
+  return std::sqrt(sonar_sigma * sonar_sigma + slope_part * slope_part);
+}
+
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"flatness_std", "gate_chi2", "gate_max_height_difference"});
+  reader.rejectUnknownKeys({"flatness_std", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
+                            "carry_slope_std", "carry_max_distance_m"});
   SonarDepthOptions o;
   o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
   o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
   o.gate_max_height_difference = reader.get<double>("gate_max_height_difference", o.gate_max_height_difference);
+  o.carry_seabed_through_outages = reader.get<bool>("carry_seabed_through_outages", o.carry_seabed_through_outages);
+  o.carry_slope_std = reader.get<double>("carry_slope_std", o.carry_slope_std);
+  o.carry_max_distance_m = reader.get<double>("carry_max_distance_m", o.carry_max_distance_m);
   requireNonNegative(reader, "flatness_std", o.flatness_std);
   requirePositive(reader, "gate_chi2", o.gate_chi2);
   requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
+  requireNonNegative(reader, "carry_slope_std", o.carry_slope_std);
+  requirePositive(reader, "carry_max_distance_m", o.carry_max_distance_m);
   return o;
 }
 
@@ -29,44 +40,79 @@ std::string SonarDepthOptions::toYaml() const {
   std::ostringstream os;
   os << "flatness_std: " << flatness_std << "\n"
      << "gate_chi2: " << gate_chi2 << "\n"
-     << "gate_max_height_difference: " << gate_max_height_difference << "\n";
+     << "gate_max_height_difference: " << gate_max_height_difference << "\n"
+     << "carry_seabed_through_outages: " << (carry_seabed_through_outages ? "true" : "false") << "\n"
+     << "carry_slope_std: " << carry_slope_std << "\n"
+     << "carry_max_distance_m: " << carry_max_distance_m << "\n";
   return os.str();
 }
+
+namespace {
+/// The feature f_b = p_bc + lambda R_bc b in the body frame of its anchor, and the Jacobian
+/// columns of -(f_l)_z = -e_z^T R_k f_b that the sonar depth and seabed height residuals share
+/// (extrinsic, lambda, td); `up_in_b` = e_z^T R_k.
+Eigen::Vector3d featureInBody(const FeatureObservation& anchor, const Eigen::Isometry3d& T_b_c, double lambda,
+                              double td, const Eigen::RowVector3d& up_in_b, SonarDepthJacobians* J) {
+  const Eigen::Matrix3d R_bc = T_b_c.linear();
+  Eigen::Vector3d db_dtd;
+  const Eigen::Vector3d b = unitBearing(anchor, td, J ? &db_dtd : nullptr);
+  if (J != nullptr) {
+    J->d_extrinsic.leftCols<3>() = -up_in_b;
+    J->d_extrinsic.rightCols<3>() = up_in_b * R_bc * so3::skew(lambda * b);
+    J->d_lambda = -up_in_b * (R_bc * b);
+    J->d_td = -lambda * up_in_b * (R_bc * db_dtd);
+  }
+  return T_b_c.translation() + lambda * (R_bc * b);
+}
+
+SonarGateResult gate(double height_difference, double sigma, const SonarDepthOptions& options) {
+  SonarGateResult g;
+  g.height_difference = height_difference;
+  g.chi2 = height_difference * height_difference / (sigma * sigma);
+  g.consistent = std::isfinite(g.chi2) && g.chi2 <= options.gate_chi2 &&
+                 std::abs(height_difference) <= options.gate_max_height_difference;
+  return g;
+}
+}  // namespace
 
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* J) {
-  const Eigen::Matrix3d R_k = T_l_bk.linear();
-  const Eigen::Matrix3d R_bc = T_b_c.linear();
-  Eigen::Vector3d db_dtd;
-  const Eigen::Vector3d b = unitBearing(anchor, td, J ? &db_dtd : nullptr);
-
-  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
-  const Eigen::Vector3d f_b = T_b_c.translation() + lambda * (R_bc * b);            // feature, body frame
-  const Eigen::Vector3d d_b = s_b - f_b;
   // e_z^T R_k = third row of R_k: the body-frame direction whose component is height in l.
-  const Eigen::RowVector3d up_in_b = R_k.row(2);
+  const Eigen::RowVector3d up_in_b = T_l_bk.linear().row(2);
+  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
+  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, up_in_b, J);
+  const Eigen::Vector3d d_b = s_b - f_b;
   const double r = up_in_b.dot(d_b);
-  if (J == nullptr) return r;
+  if (J != nullptr) {
+    J->d_pose.leftCols<3>().setZero();
+    J->d_pose.rightCols<3>() = -up_in_b * so3::skew(d_b);
+  }
+  return r;
+}
 
-  J->d_pose.leftCols<3>().setZero();
-  J->d_pose.rightCols<3>() = -up_in_b * so3::skew(d_b);
-  J->d_extrinsic.leftCols<3>() = -up_in_b;
-  J->d_extrinsic.rightCols<3>() = up_in_b * R_bc * so3::skew(lambda * b);
-  J->d_lambda = -up_in_b * (R_bc * b);
-  J->d_td = -lambda * up_in_b * (R_bc * db_dtd);
+double seabedHeightResidual(const FeatureObservation& anchor, double seabed_height, const Eigen::Isometry3d& T_l_bk,
+                            const Eigen::Isometry3d& T_b_c, double lambda, double td, SonarDepthJacobians* J) {
+  const Eigen::RowVector3d up_in_b = T_l_bk.linear().row(2);
+  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, up_in_b, J);
+  const double r = seabed_height - T_l_bk.translation().z() - up_in_b.dot(f_b);
+  if (J != nullptr) {
+    J->d_pose.leftCols<3>() = Eigen::RowVector3d(0.0, 0.0, -1.0);
+    J->d_pose.rightCols<3>() = up_in_b * so3::skew(f_b);
+  }
   return r;
 }
 
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options) {
-  SonarGateResult g;
-  g.height_difference = sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td);
-  g.chi2 = g.height_difference * g.height_difference / (sigma * sigma);
-  g.consistent = std::isfinite(g.chi2) && g.chi2 <= options.gate_chi2 &&
-                 std::abs(g.height_difference) <= options.gate_max_height_difference;
-  return g;
+  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td), sigma, options);
+}
+
+SonarGateResult seabedHeightGate(const FeatureObservation& anchor, double seabed_height,
+                                 const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
+                                 double td, double sigma, const SonarDepthOptions& options) {
+  return gate(seabedHeightResidual(anchor, seabed_height, T_l_bk, T_b_c, lambda, td), sigma, options);
 }
 
 SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
@@ -88,6 +134,27 @@ bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residua
   residuals[0] = inv_sigma_ * r;
   if (!jacobians) return true;
 
+  writePoseJacobian<1>(inv_sigma_ * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
+  writePoseJacobian<1>(inv_sigma_ * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
+  if (jacobians[2]) jacobians[2][0] = inv_sigma_ * J.d_lambda;
+  if (jacobians[3]) jacobians[3][0] = inv_sigma_ * J.d_td;
+  return true;
+}
+
+SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, double seabed_height, double sigma)
+    : anchor_(anchor), seabed_height_(seabed_height), inv_sigma_(1.0 / sigma) {
+  if (!std::isfinite(seabed_height)) throw std::invalid_argument("SeabedHeightFactor: height must be finite");
+  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SeabedHeightFactor: sigma must be > 0");
+}
+
+bool SeabedHeightFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  SonarDepthJacobians J;
+  const double r = seabedHeightResidual(anchor_, seabed_height_, poseBlockToIsometry(parameters[0]),
+                                        poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
+                                        jacobians ? &J : nullptr);
+  if (!std::isfinite(r)) return false;
+  residuals[0] = inv_sigma_ * r;
+  if (!jacobians) return true;
   writePoseJacobian<1>(inv_sigma_ * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
   writePoseJacobian<1>(inv_sigma_ * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
   if (jacobians[2]) jacobians[2][0] = inv_sigma_ * J.d_lambda;

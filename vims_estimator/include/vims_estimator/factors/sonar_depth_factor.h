@@ -25,6 +25,19 @@
 /// depth plus the seabed's deviation from a plane between the beam spot and the feature); the
 /// factor returns r / sigma. It is meant to be used with a robust loss (Huber or Cauchy, chosen
 /// by the caller) and after sonarDepthGate() has removed features off the seabed plane.
+///
+/// Seabed height factor (sonar outages): without a range at keyframe k, the last seabed height
+/// h measured by the sonar (a constant in the gravity-aligned frame l) stands in for s_l:
+///
+///   r = h - (f_l)_z = h - p_k,z - e_z^T R_k f_b                                 (1 residual)
+///
+///   dr/dp_k = -e_z^T                 dr/dth_k  = e_z^T R_k [f_b]x
+///   (extrinsic, lambda, td: as the sonar depth factor, whose s_b does not depend on them)
+///
+/// Unlike the sonar factor it depends on p_k: it ties the feature to an absolute height, so with
+/// the vehicle's height from the IMU-propagated window it keeps the scale that the sonar gave
+/// before the outage. sigma = sqrt(sigma_sonar^2 + (slope_std * D)^2) grows with the horizontal
+/// distance D from where h was measured (the seabed is locally, not globally, flat).
 
 #include <ceres/sized_cost_function.h>
 
@@ -48,18 +61,31 @@ struct SonarDepthOptions {
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
   double gate_max_height_difference = 0.5;
 
+  /// Sonar outages: features anchored in keyframes without a range get a seabed height factor
+  /// (file comment) at the last measured seabed height while within carry_max_distance_m of it.
+  bool carry_seabed_through_outages = true;
+  /// [m/m] Growth of the carried height's standard deviation with horizontal distance: a 5 %
+  /// slope is a gentle seabed; a flat tank floor is 0 (the prior is then conservative).
+  double carry_slope_std = 0.05;
+  /// [m] Beyond this horizontal distance from the last sonar fix the carried height is dropped.
+  double carry_max_distance_m = 10.0;
+
   /// sqrt(range_std^2 + flatness_std^2).
   double sigma(double range_std) const;
+  /// Standard deviation of the carried seabed height at horizontal distance `distance_m` from
+  /// the fix: sqrt(sonar_sigma^2 + (carry_slope_std * distance_m)^2).
+  double carriedSigma(double sonar_sigma, double distance_m) const;
 
-  /// Reads {flatness_std, gate_chi2, gate_max_height_difference}; unknown keys, negative
-  /// flatness_std and non-positive gates throw ConfigError naming the key.
+  /// Reads {flatness_std, gate_chi2, gate_max_height_difference, carry_seabed_through_outages,
+  /// carry_slope_std, carry_max_distance_m}; unknown keys, negative flatness_std or
+  /// carry_slope_std and non-positive gates or distance throw ConfigError naming the key.
   static SonarDepthOptions fromReader(const ConfigReader& reader);
   std::string toYaml() const;
 };
 
-/// Tangent-space Jacobians of the unwhitened sonar depth residual.
+/// Tangent-space Jacobians of the unwhitened sonar depth (or seabed height) residual.
 struct SonarDepthJacobians {
-  Eigen::Matrix<double, 1, 6> d_pose;  ///< zero in the position columns (p_k cancels)
+  Eigen::Matrix<double, 1, 6> d_pose;  ///< sonar depth: zero in the position columns (p_k cancels)
   Eigen::Matrix<double, 1, 6> d_extrinsic;
   double d_lambda = 0.0;
   double d_td = 0.0;
@@ -69,6 +95,11 @@ struct SonarDepthJacobians {
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* jacobians = nullptr);
+
+/// The unwhitened seabed height residual r = h - (f_l)_z (file comment); Jacobians if non-null.
+double seabedHeightResidual(const FeatureObservation& anchor, double seabed_height, const Eigen::Isometry3d& T_l_bk,
+                            const Eigen::Isometry3d& T_b_c, double lambda, double td,
+                            SonarDepthJacobians* jacobians = nullptr);
 
 /// Result of the flat-bottom consistency gate.
 struct SonarGateResult {
@@ -82,6 +113,11 @@ struct SonarGateResult {
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options);
+
+/// The same gate on a seabed height residual (a carried height and its carriedSigma()).
+SonarGateResult seabedHeightGate(const FeatureObservation& anchor, double seabed_height,
+                                 const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
+                                 double td, double sigma, const SonarDepthOptions& options);
 
 /// Ceres wrapper: parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1)]; returns r / sigma.
 class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
@@ -97,6 +133,21 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
   FeatureObservation anchor_;
   double range_;
   Eigen::Isometry3d T_b_s_;
+  double inv_sigma_;
+};
+
+/// Ceres wrapper of the seabed height residual: parameter blocks [pose_k (7), T_b_c (7),
+/// lambda (1), td (1)]; returns r / sigma. Throws std::invalid_argument if the height is not
+/// finite or sigma is not > 0.
+class SeabedHeightFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
+ public:
+  SeabedHeightFactor(const FeatureObservation& anchor, double seabed_height, double sigma);
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  FeatureObservation anchor_;
+  double seabed_height_;
   double inv_sigma_;
 };
 
