@@ -177,7 +177,10 @@ VioEstimator::~VioEstimator() = default;
 Eigen::Isometry3d VioEstimator::extrinsicCamera() const { return poseBlockToIsometry(T_b_c_block_); }
 
 void VioEstimator::reset(const std::string& why) {
-  if (!frames_.empty()) logger_->warn(kComponent, "reset: " + why + " (a new session starts at the next frame)");
+  if (!frames_.empty()) {
+    logger_->warn(kComponent, "reset: " + why + " (a new session starts at the next frame)");
+    ++resets_;
+  }
   frames_.clear();
   features_.clear();
   priors_.clear();

@@ -101,6 +101,9 @@ class VioEstimator {
   std::optional<VioImuState> imuPropagatedState() const;
 
   std::uint32_t session() const { return session_; }
+  /// Sessions dropped so far (failure, IMU gap, time going backwards, ...), whichever input
+  /// triggered the reset.
+  long resets() const { return resets_; }
   bool initialized() const { return !frames_.empty(); }
   double td() const { return td_[0]; }
   const EstimatorOptions& options() const { return options_; }
@@ -180,6 +183,7 @@ class VioEstimator {
   /// states it shares with no other prior leave the window).
   std::vector<std::shared_ptr<const MarginalizationPrior>> priors_;
   std::uint32_t session_ = 0;
+  long resets_ = 0;
   bool session_started_ = false;
   double last_good_tracking_t_ = 0.0;
   double last_frame_stamp_ = -1e300;
