@@ -236,7 +236,7 @@ void writeOutcomeMatrixPng(const cv::Mat& outcomes, const std::string& title, co
   }
   cv::putText(canvas, "query keyframe (visual submap) x", cv::Point(left + side / 2 - 140, top + side + 52), font, 0.55,
               ink, 1, cv::LINE_AA);
-  cv::putText(canvas, "historical y", cv::Point(8, top - 12), font, 0.55, ink, 1, cv::LINE_AA);
+  putVerticalText(canvas, "historical keyframe (visual submap) y", cv::Point(18, top + side / 2), 0.55);
   cv::putText(canvas, title, cv::Point(left, top - 18), font, 0.6, ink, 1, cv::LINE_AA);
   const std::pair<PairOutcome, const char*> legend[] = {{PairOutcome::kTruePositive, "true positive"},
                                                         {PairOutcome::kFalsePositive, "false positive"},

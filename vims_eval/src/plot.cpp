@@ -79,22 +79,6 @@ void putText(cv::Mat& canvas, const std::string& text, cv::Point origin, double 
   cv::putText(canvas, text, origin, kFont, scale, color, 1, cv::LINE_AA);
 }
 
-/// Text rotated 90 degrees counter-clockwise, centred on `center` (for vertical axis labels).
-void putVerticalText(cv::Mat& canvas, const std::string& text, cv::Point center, double scale) {
-  if (text.empty()) return;
-  int baseline = 0;
-  const cv::Size size = textSize(text, scale, &baseline);
-  cv::Mat horizontal(size.height + baseline + 4, size.width + 4, CV_8UC3, kWhite);
-  putText(horizontal, text, cv::Point(2, size.height + 2), scale);
-  cv::Mat vertical;
-  cv::rotate(horizontal, vertical, cv::ROTATE_90_COUNTERCLOCKWISE);
-  cv::Rect target(center.x - vertical.cols / 2, center.y - vertical.rows / 2, vertical.cols, vertical.rows);
-  const cv::Rect clipped = target & cv::Rect(0, 0, canvas.cols, canvas.rows);
-  if (clipped.area() == 0) return;
-  vertical(cv::Rect(clipped.x - target.x, clipped.y - target.y, clipped.width, clipped.height))
-      .copyTo(canvas(clipped));
-}
-
 void drawMarker(cv::Mat& image, const cv::Point2d& c, int size, MarkerShape shape, const cv::Scalar& color) {
   const double s = std::max(1, size);
   switch (shape) {
@@ -129,6 +113,21 @@ void checkSameLength(const std::vector<double>& a, const std::vector<double>& b,
 }
 
 }  // namespace
+
+void putVerticalText(cv::Mat& canvas, const std::string& text, cv::Point center, double scale) {
+  if (text.empty()) return;
+  int baseline = 0;
+  const cv::Size size = textSize(text, scale, &baseline);
+  cv::Mat horizontal(size.height + baseline + 4, size.width + 4, CV_8UC3, kWhite);
+  putText(horizontal, text, cv::Point(2, size.height + 2), scale);
+  cv::Mat vertical;
+  cv::rotate(horizontal, vertical, cv::ROTATE_90_COUNTERCLOCKWISE);
+  cv::Rect target(center.x - vertical.cols / 2, center.y - vertical.rows / 2, vertical.cols, vertical.rows);
+  const cv::Rect clipped = target & cv::Rect(0, 0, canvas.cols, canvas.rows);
+  if (clipped.area() == 0) return;
+  vertical(cv::Rect(clipped.x - target.x, clipped.y - target.y, clipped.width, clipped.height))
+      .copyTo(canvas(clipped));
+}
 
 cv::Scalar plotColor(std::size_t i) {
   // matplotlib tab10, as BGR.

@@ -40,6 +40,9 @@ struct HeatmapStyle {
   cv::Scalar invalid_color{200, 200, 200};  ///< colour of non-finite cells
 };
 
+/// Text rotated 90 degrees counter-clockwise, centred on `center` (vertical axis labels).
+void putVerticalText(cv::Mat& canvas, const std::string& text, cv::Point center, double scale);
+
 class Plot2D {
  public:
   explicit Plot2D(int width_px = 900, int height_px = 700);
