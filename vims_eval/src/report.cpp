@@ -248,8 +248,9 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
                 ev.revisits.closed, ev.revisits.closedPercent());
   out << buf;
   for (const auto& e : ev.events) {
-    std::snprintf(buf, sizeof(buf), "   [%.3f, %.3f] (%.1f s, earlier visit at %.3f): %s\n", e.t_start, e.t_end,
-                  e.t_end - e.t_start, e.t_previous, e.closed ? "closed" : "missed");
+    std::snprintf(buf, sizeof(buf), "   [%.3f, %.3f] (%.1f s, earlier visit at %.3f, height %+.2f m, heading %.0f deg): %s\n",
+                  e.t_start, e.t_end, e.t_end - e.t_start, e.t_previous, e.height_change_m, e.heading_change_deg,
+                  e.closed ? "closed" : "missed");
     out << buf;
   }
 }
@@ -311,6 +312,8 @@ YAML::Node loopsToYaml(const LoopEvaluation& ev, const LoopScoringOptions& loop_
     item["t_previous"] = yamlNumber(e.t_previous);
     item["x"] = yamlNumber(e.p_w_start.x());
     item["y"] = yamlNumber(e.p_w_start.y());
+    item["height_change_m"] = yamlNumber(e.height_change_m);
+    item["heading_change_deg"] = yamlNumber(e.heading_change_deg);
     item["closed"] = e.closed;
     if (e.closed)
       item["t_closing_query"] = yamlNumber(e.t_closing_query);

@@ -45,6 +45,14 @@ class HorizontalGrid {
   std::unordered_map<long long, std::vector<std::size_t>> cells_;
 };
 
+/// |yaw(b) - yaw(a)| in degrees, [0, 180]; yaw of the body x axis in the world x-y plane.
+double headingChangeDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  const Eigen::Vector3d xa = a * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d xb = b * Eigen::Vector3d::UnitX();
+  const double d = std::atan2(xb.y(), xb.x()) - std::atan2(xa.y(), xa.x());
+  return std::abs(std::remainder(d, 2.0 * M_PI)) * 180.0 / M_PI;
+}
+
 }  // namespace
 
 std::vector<RevisitEvent> detectRevisitEvents(const std::vector<StampedPose>& gt, const RevisitOptions& options) {
@@ -68,6 +76,8 @@ std::vector<RevisitEvent> detectRevisitEvents(const std::vector<StampedPose>& gt
         open->first_index = i;
         open->t_previous = gt[*earlier].t;
         open->p_w_start = gt[i].p;
+        open->height_change_m = gt[i].p.z() - gt[*earlier].p.z();
+        open->heading_change_deg = headingChangeDeg(gt[*earlier].q, gt[i].q);
       }
       open->t_end = gt[i].t;
       open->last_index = i;

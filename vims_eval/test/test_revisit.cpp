@@ -72,6 +72,30 @@ TEST(Revisit, FigureEightEvents) {
   EXPECT_GT(events_wide[0].t_end - events_wide[0].t_start, events40[0].t_end - events40[0].t_start + 1.0);
 }
 
+TEST(Revisit, EventsReportHeightAndHeadingChange) {
+  // East along y = 0 at 4 m, then 100 s later north along x = 0 at 2.5 m: one event around the
+  // crossing at the origin, 1.5 m lower and turned by 90 deg.
+  std::vector<StampedPose> gt;
+  const Eigen::Quaterniond north(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  for (int i = 0; i <= 200; ++i) {
+    StampedPose p;
+    p.t = 0.1 * i;
+    p.p = Eigen::Vector3d(-10.0 + 0.1 * i, 0.0, 4.0);
+    gt.push_back(p);
+  }
+  for (int i = 0; i <= 200; ++i) {
+    StampedPose p;
+    p.t = 100.0 + 0.1 * i;
+    p.p = Eigen::Vector3d(0.0, -10.0 + 0.1 * i, 2.5);
+    p.q = north;
+    gt.push_back(p);
+  }
+  const auto events = detectRevisitEvents(gt, RevisitOptions{});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_NEAR(events[0].height_change_m, -1.5, 1e-12);
+  EXPECT_NEAR(events[0].heading_change_deg, 90.0, 1e-9);
+}
+
 TEST(Revisit, ClosedByAcceptedCorrectLoopsOnly) {
   const auto gt = figureEight();
   RevisitOptions options;

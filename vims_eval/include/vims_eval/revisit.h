@@ -4,8 +4,10 @@
 /// ground truth alone, and which of them the loop-closure module actually closed.
 ///
 /// Definition. A ground-truth sample i is *revisiting* when some earlier sample j with
-/// t_j <= t_i - min_gap_s lies within radius_m of it horizontally (x-y distance; depth is
-/// ignored because a downward camera and the magnetic map see the same place from any depth).
+/// t_j <= t_i - min_gap_s lies within radius_m of it horizontally (x-y distance: the seabed
+/// below is the same place from any height). Height and heading may differ between the visits;
+/// each event reports both, because they are what makes a revisit hard: a height change scales
+/// the image (and the coil's field falls off with distance), a heading change rotates it.
 /// A revisit event is a maximal run of consecutive revisiting samples, reported as the time
 /// interval [t_start, t_end]. An event is *closed* when at least one accepted and correct loop
 /// has t_query inside [t_start - margin_s, t_end + margin_s].
@@ -32,6 +34,8 @@ struct RevisitEvent {
   std::size_t last_index = 0;
   double t_previous = 0.0;      ///< time of an earlier visit within radius_m of the first sample
   Eigen::Vector3d p_w_start = Eigen::Vector3d::Zero();
+  double height_change_m = 0.0;     ///< z of the first sample minus z of the earlier visit
+  double heading_change_deg = 0.0;  ///< |yaw difference| between them, in [0, 180]
   bool closed = false;
   double t_closing_query = 0.0;  ///< t_query of the first correct accepted loop in the event (if closed)
 };
