@@ -37,6 +37,20 @@ bool isRotation(const Eigen::Matrix3d& R) {
 }
 
 bool isValidPose(const Eigen::Isometry3d& T) { return T.translation().allFinite() && isRotation(T.linear()); }
+
+/// Whether the Cauchy solve needs the convex Huber stage first: some new loop (id >=
+/// first_new_loop_id) that the solve may move starts further than the loss scale from its
+/// measurement, where Cauchy is not convex. Loops inside the scale (a burst of loops after the
+/// first one closed the drift, or a solve without new loops) start in Cauchy's convex region.
+bool needsConvexStage(const PoseGraphSnapshot& s, size_t first_free) {
+  for (const LoopEdge& e : s.loop_edges) {
+    if (e.id < s.first_new_loop_id || (e.match < first_free && e.query < first_free)) continue;
+    const Eigen::Vector4d r = relativePose4DofResidual(s.nodes[e.match].p_w_b, s.nodes[e.match].yaw_w_b,
+                                                       s.nodes[e.query].p_w_b, s.nodes[e.query].yaw_w_b, e.measurement);
+    if (e.sqrt_information.cwiseProduct(r).norm() > s.options.loop_loss_scale) return true;
+  }
+  return false;
+}
 }  // namespace
 
 std::string toString(RobustLoss loss) {
@@ -66,7 +80,9 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   reader.rejectUnknownKeys({"odometry_position_sigma_m", "odometry_position_sigma_per_m", "odometry_yaw_sigma_deg",
                             "odometry_yaw_sigma_per_m_deg", "loop_position_sigma_m", "loop_yaw_sigma_deg", "loop_loss",
                             "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
-                            "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads"});
+                            "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads",
+                            "function_tolerance", "online_function_tolerance", "loop_solve_from_earliest_node",
+                            "window_keyframes"});
   PoseGraphOptions o;
   auto positive = [&](const char* key, double fallback) {
     const double v = reader.get<double>(key, fallback);
@@ -105,6 +121,13 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   o.max_solver_time_s = nonNegative("max_solver_time_s", o.max_solver_time_s);
   o.num_threads = reader.get<int>("num_threads", o.num_threads);
   requireInRange(reader, "num_threads", o.num_threads, 1, 64);
+  o.function_tolerance = positive("function_tolerance", o.function_tolerance);
+  requireInRange(reader, "function_tolerance", o.function_tolerance, 1e-12, 0.1);
+  o.online_function_tolerance = positive("online_function_tolerance", o.online_function_tolerance);
+  requireInRange(reader, "online_function_tolerance", o.online_function_tolerance, 1e-12, 0.1);
+  o.loop_solve_from_earliest_node = reader.get<bool>("loop_solve_from_earliest_node", o.loop_solve_from_earliest_node);
+  o.window_keyframes = reader.get<int>("window_keyframes", o.window_keyframes);
+  requireInRange(reader, "window_keyframes", o.window_keyframes, 0, 100000000);
   return o;
 }
 
@@ -125,6 +148,9 @@ void PoseGraphOptions::validate() const {
   check(max_iterations >= 1, "max_iterations");
   check(max_solver_time_s >= 0.0, "max_solver_time_s");
   check(num_threads >= 1, "num_threads");
+  check(function_tolerance > 0.0 && function_tolerance < 1.0, "function_tolerance");
+  check(online_function_tolerance > 0.0 && online_function_tolerance < 1.0, "online_function_tolerance");
+  check(window_keyframes >= 0, "window_keyframes");
 }
 
 std::string PoseGraphOptions::toYaml() const {
@@ -144,7 +170,11 @@ std::string PoseGraphOptions::toYaml() const {
      << "mag_min_horizontal_field_tesla: " << mag_min_horizontal_field_tesla << "\n"
      << "max_iterations: " << max_iterations << "\n"
      << "max_solver_time_s: " << max_solver_time_s << "\n"
-     << "num_threads: " << num_threads << "\n";
+     << "num_threads: " << num_threads << "\n"
+     << "function_tolerance: " << function_tolerance << "\n"
+     << "online_function_tolerance: " << online_function_tolerance << "\n"
+     << "loop_solve_from_earliest_node: " << (loop_solve_from_earliest_node ? "true" : "false") << "\n"
+     << "window_keyframes: " << window_keyframes << "\n";
   return os.str();
 }
 
@@ -336,28 +366,46 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
   report.num_sequential_edges = s.sequential_edges.size();
   report.num_loop_edges = s.loop_edges.size();
   report.num_yaw_factors = s.yaw_measurements.size();
-  if (n == 0 || (s.sequential_edges.empty() && s.loop_edges.empty() && s.yaw_measurements.empty())) {
+  for (const SequentialEdge& e : s.sequential_edges)
+    if (e.from >= n || e.to >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+  for (const LoopEdge& e : s.loop_edges)
+    if (e.match >= n || e.query >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+  for (const YawMeasurement& m : s.yaw_measurements)
+    if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+  // Partial solve: nodes before first_free_node are held, and factors between held nodes only
+  // are left out (they cannot change anything).
+  const size_t first_free = std::min(s.first_free_node, n);
+  report.num_free_nodes = n - first_free;
+  if (report.num_free_nodes == 0 ||
+      (s.sequential_edges.empty() && s.loop_edges.empty() && s.yaw_measurements.empty())) {
     report.message = "nothing to optimise";
     return sol;
   }
+  auto isFree = [&](PoseGraphNodeId i) { return i >= first_free; };
 
   // One Ceres solve over the solution arrays (warm-started from their current values) with the
   // given loop loss. The problem borrows the manifold and the losses (shared by many residual
   // blocks) and owns the cost functions.
   AngleManifold angle_manifold;
   const std::unique_ptr<ceres::LossFunction> mag_loss = makeLoss(s.options.mag_loss, s.options.mag_loss_scale);
-  auto runSolver = [&](ceres::LossFunction* loop_loss, ceres::Solver::Summary* summary) {
+  auto runSolver = [&](ceres::LossFunction* loop_loss, RobustLoss loop_loss_type, ceres::Solver::Summary* summary) {
+    const auto build_start = std::chrono::steady_clock::now();
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
     auto addNodeBlocks = [&](PoseGraphNodeId i) {
-      if (!problem.HasParameterBlock(sol.p_w_b[i].data())) problem.AddParameterBlock(sol.p_w_b[i].data(), 3);
-      if (!problem.HasParameterBlock(&sol.yaw_w_b[i])) problem.AddParameterBlock(&sol.yaw_w_b[i], 1, &angle_manifold);
+      if (problem.HasParameterBlock(sol.p_w_b[i].data())) return;
+      problem.AddParameterBlock(sol.p_w_b[i].data(), 3);
+      problem.AddParameterBlock(&sol.yaw_w_b[i], 1, &angle_manifold);
+      if (!isFree(i)) {
+        problem.SetParameterBlockConstant(sol.p_w_b[i].data());
+        problem.SetParameterBlockConstant(&sol.yaw_w_b[i]);
+      }
     };
     auto addRelative = [&](PoseGraphNodeId i, PoseGraphNodeId j, const RelativePose4Dof& z,
                            const Eigen::Vector4d& sqrt_info, ceres::LossFunction* loss) {
-      if (i >= n || j >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+      if (!isFree(i) && !isFree(j)) return;
       addNodeBlocks(i);
       addNodeBlocks(j);
       problem.AddResidualBlock(new RelativePose4DofFactor(z, sqrt_info), loss, sol.p_w_b[i].data(), &sol.yaw_w_b[i],
@@ -366,32 +414,47 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     for (const SequentialEdge& e : s.sequential_edges) addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
     for (const LoopEdge& e : s.loop_edges) addRelative(e.match, e.query, e.measurement, e.sqrt_information, loop_loss);
     for (const YawMeasurement& m : s.yaw_measurements) {
-      if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+      if (!isFree(m.node)) continue;
       addNodeBlocks(m.node);
       problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad), mag_loss.get(),
                                &sol.yaw_w_b[m.node]);
     }
-    // Gauge: relative edges fix nothing absolute. Node 0's position is held; its yaw too unless
-    // geomagnetic factors make yaw observable (then holding it would fight the magnetometer).
-    if (problem.HasParameterBlock(sol.p_w_b[0].data())) problem.SetParameterBlockConstant(sol.p_w_b[0].data());
-    if (s.yaw_measurements.empty() && problem.HasParameterBlock(&sol.yaw_w_b[0]))
-      problem.SetParameterBlockConstant(&sol.yaw_w_b[0]);
+    // Gauge: relative edges fix nothing absolute. In a full solve node 0's position is held; its
+    // yaw too unless geomagnetic factors make yaw observable (then holding it would fight the
+    // magnetometer). In a partial solve the held nodes fix the gauge.
+    if (first_free == 0) {
+      if (problem.HasParameterBlock(sol.p_w_b[0].data())) problem.SetParameterBlockConstant(sol.p_w_b[0].data());
+      if (s.yaw_measurements.empty() && problem.HasParameterBlock(&sol.yaw_w_b[0]))
+        problem.SetParameterBlockConstant(&sol.yaw_w_b[0]);
+    }
 
     ceres::Solver::Options options;
     options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
     options.max_num_iterations = s.options.max_iterations;
+    options.function_tolerance = s.options.function_tolerance;
     if (s.options.max_solver_time_s > 0.0) options.max_solver_time_in_seconds = s.options.max_solver_time_s;
     options.num_threads = s.options.num_threads;
     options.logging_type = ceres::SILENT;
     options.minimizer_progress_to_stdout = false;
+    const auto solve_start = std::chrono::steady_clock::now();
     ceres::Solve(options, &problem, summary);
+    PoseGraphStageReport stage;
+    stage.loop_loss = toString(loop_loss_type);
+    stage.iterations = static_cast<int>(summary->iterations.size()) - 1;
+    stage.build_time_s = std::chrono::duration<double>(solve_start - build_start).count();
+    stage.solver_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+    stage.preprocessor_time_s = summary->preprocessor_time_in_seconds;
+    stage.linear_solver_time_s = summary->linear_solver_time_in_seconds;
+    stage.jacobian_time_s = summary->residual_evaluation_time_in_seconds + summary->jacobian_evaluation_time_in_seconds;
+    stage.termination = summary->message;
+    report.stages.push_back(stage);
   };
 
-  report.yaw_gauge_fixed = s.yaw_measurements.empty();
+  report.yaw_gauge_fixed = s.yaw_measurements.empty() && first_free == 0;
   const auto start = std::chrono::steady_clock::now();
   ceres::Solver::Summary summary;
   bool warm_started = false;
-  if (s.options.loop_loss == RobustLoss::kCauchy && !s.loop_edges.empty()) {
+  if (s.options.loop_loss == RobustLoss::kCauchy && needsConvexStage(s, first_free)) {
     // Cauchy is not convex: started from the VIO poses, a correct loop whose residual is still
     // many sigmas (accumulated drift) gets almost no weight and the solver can stop short of
     // closing it. So first converge with Huber of the same scale (convex: a unique optimum,
@@ -399,10 +462,10 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     // loops that remain inconsistent.
     const std::unique_ptr<ceres::LossFunction> huber = makeLoss(RobustLoss::kHuber, s.options.loop_loss_scale);
     ceres::Solver::Summary warm;
-    runSolver(huber.get(), &warm);
+    runSolver(huber.get(), RobustLoss::kHuber, &warm);
     if (warm.IsSolutionUsable()) {
       const std::unique_ptr<ceres::LossFunction> cauchy = makeLoss(RobustLoss::kCauchy, s.options.loop_loss_scale);
-      runSolver(cauchy.get(), &summary);
+      runSolver(cauchy.get(), RobustLoss::kCauchy, &summary);
       warm_started = true;
       report.iterations = static_cast<int>(warm.iterations.size()) - 1;
       report.initial_cost = warm.initial_cost;
@@ -411,7 +474,7 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     }
   } else {
     const std::unique_ptr<ceres::LossFunction> loop_loss = makeLoss(s.options.loop_loss, s.options.loop_loss_scale);
-    runSolver(loop_loss.get(), &summary);
+    runSolver(loop_loss.get(), s.options.loop_loss, &summary);
   }
   report.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   report.solved = summary.IsSolutionUsable();

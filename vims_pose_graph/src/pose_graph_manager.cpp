@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <iomanip>
 #include <stdexcept>
 
@@ -20,7 +21,26 @@ bool isValidPose(const Eigen::Isometry3d& T) {
 }
 
 double yawOf(const Eigen::Matrix3d& R) { return yawPitchRollFromRotation(R).yaw; }
+
+/// CPU time of the calling thread [s] (not inflated by other jobs on the machine).
+double threadCpuSeconds() {
+  timespec ts{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 }  // namespace
+
+std::string toString(OptimisationTrigger trigger) {
+  switch (trigger) {
+    case OptimisationTrigger::kLoop:
+      return "loop";
+    case OptimisationTrigger::kFinish:
+      return "finish";
+    case OptimisationTrigger::kPeriodic:
+      break;
+  }
+  return "periodic";
+}
 
 // ---------------------------------------------------------------------------------------------
 // Construction
@@ -203,29 +223,31 @@ void PoseGraphManager::processingLoop() {
 
 void PoseGraphManager::optimiserLoop() {
   for (;;) {
+    OptimisationTrigger trigger;
     {
       std::unique_lock<std::mutex> lk(queue_mutex_);
       optimise_cv_.wait(lk, [&] { return stop_ || optimisation_requested_; });
       if (stop_) return;
       optimisation_requested_ = false;
+      trigger = requested_trigger_;
+      requested_trigger_ = OptimisationTrigger::kPeriodic;
       optimising_ = true;
     }
     try {
       std::vector<ComponentSnapshot> snapshots;
+      size_t loops_included = 0;
+      double t_keyframe = 0.0;
       {
         std::lock_guard<std::mutex> lk(state_mutex_);
-        if (map_.numNodes() > 0) {
-          snapshots.push_back(map_.snapshotComponent(0));
-          if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back()))
-            snapshots.push_back(map_.snapshotComponent(run_nodes_.back()));
-        }
+        snapshots = takeSnapshots(trigger);
+        loops_included = loops_awaiting_correction_.size();
+        t_keyframe = run_nodes_.empty() ? 0.0 : map_.node(run_nodes_.back()).pose.t;
       }
       // The solve runs without the map lock: keyframes keep arriving and outputs stay readable.
-      std::vector<PoseGraphSolution> solutions;
-      for (const ComponentSnapshot& s : snapshots) solutions.push_back(PoseGraph4Dof::solve(s.snapshot));
+      std::vector<OptimisationRecord> records;
+      const std::vector<PoseGraphSolution> solutions = solveSnapshots(snapshots, trigger, t_keyframe, &records);
       std::lock_guard<std::mutex> lk(state_mutex_);
-      for (size_t i = 0; i < snapshots.size(); ++i) map_.applySolution(snapshots[i], solutions[i]);
-      ++stats_.optimisations;
+      applySolutions(snapshots, solutions, std::move(records), loops_included);
     } catch (const std::exception& e) {
       logger_->error(kComponent, VIMS_STR("optimisation failed: " << e.what()));
     }
@@ -237,33 +259,100 @@ void PoseGraphManager::optimiserLoop() {
   }
 }
 
-void PoseGraphManager::requestOptimisation() {
+void PoseGraphManager::requestOptimisation(OptimisationTrigger trigger) {
   keyframes_since_optimisation_ = 0;
   if (options_.synchronous) {
-    optimiseInline();
+    if (map_.numNodes() == 0) return;
+    const std::vector<ComponentSnapshot> snapshots = takeSnapshots(trigger);
+    const double t_keyframe = run_nodes_.empty() ? 0.0 : map_.node(run_nodes_.back()).pose.t;
+    std::vector<OptimisationRecord> records;
+    const std::vector<PoseGraphSolution> solutions = solveSnapshots(snapshots, trigger, t_keyframe, &records);
+    applySolutions(snapshots, solutions, std::move(records), loops_awaiting_correction_.size());
     return;
   }
   {
     std::lock_guard<std::mutex> lk(queue_mutex_);  // lock order: state, then queue
     optimisation_requested_ = true;
+    if (trigger != OptimisationTrigger::kPeriodic) requested_trigger_ = trigger;
   }
   optimise_cv_.notify_one();
 }
 
-void PoseGraphManager::optimiseInline() {
-  if (map_.numNodes() == 0) return;
-  std::vector<PoseGraphNodeId> roots{0};
-  if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back())) roots.push_back(run_nodes_.back());
-  for (PoseGraphNodeId root : roots) {
-    const ComponentSnapshot s = map_.snapshotComponent(root);
-    const PoseGraphSolution solution = PoseGraph4Dof::solve(s.snapshot);
-    map_.applySolution(s, solution);
-    const PoseGraphReport& r = solution.report;
-    logger_->debug(kComponent, VIMS_STR("optimised " << r.num_nodes << " nodes, " << r.num_loop_edges << " loops, "
-                                        << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost << " -> "
-                                        << r.final_cost << " (" << r.message << ")"));
+std::vector<ComponentSnapshot> PoseGraphManager::takeSnapshots(OptimisationTrigger trigger) const {
+  std::vector<ComponentSnapshot> snapshots;
+  if (map_.numNodes() == 0) return snapshots;
+  snapshots.push_back(map_.snapshotComponent(0));
+  if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back()))
+    snapshots.push_back(map_.snapshotComponent(run_nodes_.back()));
+
+  // What this solve optimises (global node ids; nodes are numbered in time order within a run,
+  // loaded maps first). After new loops: everything from the earliest node they touch (as
+  // VINS-Mono): older nodes are not in the new cycles. Otherwise (periodic, yaw factors of the
+  // newest keyframes): the newest window_keyframes. At the end of data: the whole graph,
+  // converged to the tighter function_tolerance.
+  const PoseGraphOptions& g = options_.graph;
+  PoseGraphNodeId first_free = 0;
+  if (trigger != OptimisationTrigger::kFinish) {
+    if (!loops_awaiting_correction_.empty()) {
+      if (g.loop_solve_from_earliest_node) {
+        first_free = loops_awaiting_correction_.front().earliest_node;
+        for (const AwaitingLoop& l : loops_awaiting_correction_) first_free = std::min(first_free, l.earliest_node);
+      }
+    } else if (g.window_keyframes > 0 && run_nodes_.size() > static_cast<size_t>(g.window_keyframes)) {
+      first_free = run_nodes_[run_nodes_.size() - static_cast<size_t>(g.window_keyframes)];
+    }
   }
+  LoopEdgeId first_new_loop = 0;  // no new loops: past the newest id
+  if (!loops_awaiting_correction_.empty())
+    first_new_loop = loops_awaiting_correction_.front().id;
+  else
+    for (const LoopEdge& e : map_.loopEdges()) first_new_loop = std::max(first_new_loop, e.id + 1);
+  for (ComponentSnapshot& cs : snapshots) {
+    if (trigger != OptimisationTrigger::kFinish) cs.snapshot.options.function_tolerance = g.online_function_tolerance;
+    cs.snapshot.first_free_node =
+        static_cast<size_t>(std::lower_bound(cs.ids.begin(), cs.ids.end(), first_free) - cs.ids.begin());
+    cs.snapshot.first_new_loop_id = first_new_loop;
+  }
+  return snapshots;
+}
+
+std::vector<PoseGraphSolution> PoseGraphManager::solveSnapshots(const std::vector<ComponentSnapshot>& snapshots,
+                                                                OptimisationTrigger trigger, double t_keyframe,
+                                                                std::vector<OptimisationRecord>* records) const {
+  std::vector<PoseGraphSolution> solutions;
+  for (const ComponentSnapshot& s : snapshots) {
+    const double cpu_start = threadCpuSeconds();
+    const auto start = std::chrono::steady_clock::now();
+    solutions.push_back(PoseGraph4Dof::solve(s.snapshot));
+    OptimisationRecord record;
+    record.trigger = trigger;
+    record.t_keyframe = t_keyframe;
+    record.solve_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    record.solve_cpu_ms = 1e3 * (threadCpuSeconds() - cpu_start);
+    record.report = solutions.back().report;
+    record.report.loop_residuals.clear();
+    const PoseGraphReport& r = record.report;
+    logger_->debug(kComponent, VIMS_STR("optimised (" << toString(trigger) << ") " << r.num_nodes << " nodes, "
+                                        << r.num_loop_edges << " loops, " << r.num_yaw_factors << " yaw factors: cost "
+                                        << r.initial_cost << " -> " << r.final_cost << ", " << r.iterations
+                                        << " iterations, " << record.solve_ms << " ms (" << r.message << ")"));
+    records->push_back(std::move(record));
+  }
+  return solutions;
+}
+
+void PoseGraphManager::applySolutions(const std::vector<ComponentSnapshot>& snapshots,
+                                      const std::vector<PoseGraphSolution>& solutions,
+                                      std::vector<OptimisationRecord> records, size_t loops_included) {
+  for (size_t i = 0; i < snapshots.size(); ++i) map_.applySolution(snapshots[i], solutions[i]);
   ++stats_.optimisations;
+  const auto now = std::chrono::steady_clock::now();
+  for (size_t i = 0; i < loops_included && !loops_awaiting_correction_.empty(); ++i) {
+    timings_.loop_correction_ms.push_back(
+        1e3 * std::chrono::duration<double>(now - loops_awaiting_correction_.front().accepted).count());
+    loops_awaiting_correction_.pop_front();
+  }
+  for (OptimisationRecord& r : records) timings_.solves.push_back(std::move(r));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -349,7 +438,7 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   processReady(false);
   if (keyframes_since_optimisation_ >= options_.optimise_every_n_keyframes &&
       (!map_.yawMeasurements().empty() || !map_.loopEdges().empty()))
-    requestOptimisation();
+    requestOptimisation(OptimisationTrigger::kPeriodic);
 }
 
 void PoseGraphManager::handleSignature(const SignatureWindow& w) {
@@ -385,7 +474,7 @@ void PoseGraphManager::handleGeomagnetic(double t, const Eigen::Vector3d& field_
 void PoseGraphManager::handleFinish() {
   processReady(true);
   if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
-  if (map_.numNodes() > 0) requestOptimisation();
+  if (map_.numNodes() > 0) requestOptimisation(OptimisationTrigger::kFinish);
 }
 
 void PoseGraphManager::processReady(bool flush) {
@@ -495,12 +584,13 @@ void PoseGraphManager::acceptLoop(const LoopAttempt& a) {
                                          << a.t_match << ", " << a.inliers << " inliers)"));
     }
   }
-  map_.addLoopEdge(m, q, a.T_match_query);
+  const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query);
   ++stats_.loops_accepted;
+  loops_awaiting_correction_.push_back(AwaitingLoop{std::chrono::steady_clock::now(), loop_id, std::min(m, q)});
   logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
                                                  << " t_match=" << a.t_match << " inliers=" << a.inliers
                                                  << " bow=" << a.bow_score));
-  requestOptimisation();
+  requestOptimisation(OptimisationTrigger::kLoop);
 }
 
 void PoseGraphManager::placeSignatures(bool flush) {
@@ -686,6 +776,15 @@ MapContents PoseGraphManager::mapContents() const {
 PoseGraphManagerStats PoseGraphManager::stats() const {
   std::lock_guard<std::mutex> lk(state_mutex_);
   return stats_;
+}
+
+PoseGraphTimings PoseGraphManager::timings(size_t first_solve) const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  PoseGraphTimings t;
+  if (first_solve < timings_.solves.size())
+    t.solves.assign(timings_.solves.begin() + static_cast<std::ptrdiff_t>(first_solve), timings_.solves.end());
+  t.loop_correction_ms = timings_.loop_correction_ms;
+  return t;
 }
 
 std::optional<DetectionResult> PoseGraphManager::lastDetection() const {

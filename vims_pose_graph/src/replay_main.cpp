@@ -40,6 +40,7 @@ const char* kUsage =
     "                      with --diagnose also its ground truth)\n"
     "  --inputs FILE       a recording (pose_graph.record_inputs_path of vims_offline --config)\n"
     "  --out OUT           writes OUT/loops.csv and OUT/global.tum (as vims_offline; `vims_eval run` reads them)\n"
+    "                      and OUT/optimisations.csv (one row per pose-graph solve: trigger, times, iterations)\n"
     "  --options FILE      PoseGraphManagerOptions YAML (default: config/pose_graph.yaml under the package root)\n"
     "  --mode MODE         full, vi_slam, no_alter, no_orb or no_geom (default: the options' mode)\n"
     "  --package-root DIR  for relative vocabulary paths (default: current directory)\n"
@@ -181,6 +182,50 @@ int main(int argc, char** argv) {
     std::cout << "replayed " << n_kf << " keyframes, " << n_sig << " signatures, " << n_geo
               << " geomagnetic samples; mode " << toString(options.mode) << ": " << s.loop_queries << " queries, "
               << s.loop_attempts << " attempts, " << s.loops_accepted << " loops accepted\n";
+    {
+      // Cost of the pose-graph optimisation: one row per solve, and a summary line.
+      const PoseGraphTimings timings = manager.timings();
+      std::ofstream csv((fs::path(out_dir) / "optimisations.csv").string());
+      csv << "trigger,t_keyframe,solve_ms,solve_cpu_ms,nodes,free_nodes,loops,yaw_factors,iterations,stages,stage_iterations,"
+             "build_ms,ceres_ms,preprocessor_ms,linear_solver_ms,jacobian_ms,initial_cost,final_cost\n";
+      std::vector<double> solve_ms, cpu_ms;
+      double total_ms = 0.0, total_cpu_ms = 0.0;
+      for (const OptimisationRecord& o : timings.solves) {
+        const PoseGraphReport& r = o.report;
+        std::string stage_iterations;
+        double build = 0.0, ceres_total = 0.0, preprocessor = 0.0, linear = 0.0, jacobian = 0.0;
+        for (const PoseGraphStageReport& st : r.stages) {
+          stage_iterations += (stage_iterations.empty() ? "" : "+") + std::to_string(st.iterations);
+          build += st.build_time_s;
+          ceres_total += st.solver_time_s;
+          preprocessor += st.preprocessor_time_s;
+          linear += st.linear_solver_time_s;
+          jacobian += st.jacobian_time_s;
+        }
+        csv << toString(o.trigger) << "," << std::fixed << std::setprecision(3) << o.t_keyframe << "," << o.solve_ms
+            << "," << o.solve_cpu_ms << "," << r.num_nodes << "," << r.num_free_nodes << "," << r.num_loop_edges << "," << r.num_yaw_factors
+            << "," << r.iterations << "," << r.stages.size() << "," << stage_iterations << "," << 1e3 * build << ","
+            << 1e3 * ceres_total << "," << 1e3 * preprocessor << "," << 1e3 * linear << "," << 1e3 * jacobian << "," << std::setprecision(6) << r.initial_cost << ","
+            << r.final_cost << "\n";
+        solve_ms.push_back(o.solve_ms);
+        cpu_ms.push_back(o.solve_cpu_ms);
+        total_ms += o.solve_ms;
+        total_cpu_ms += o.solve_cpu_ms;
+      }
+      auto pct = [](std::vector<double> v, double q) {
+        if (v.empty()) return std::nan("");
+        std::sort(v.begin(), v.end());
+        return v[static_cast<size_t>(std::min<double>(v.size() - 1, std::floor(q * (v.size() - 1) + 0.5)))];
+      };
+      std::cout << std::fixed << std::setprecision(1) << "pose-graph optimisation: " << solve_ms.size()
+                << " solves, p50 " << pct(solve_ms, 0.5) << " ms, p99 " << pct(solve_ms, 0.99) << " ms, max "
+                << pct(solve_ms, 1.0) << " ms, total " << std::setprecision(2) << 1e-3 * total_ms
+                << " s (CPU: p50 " << std::setprecision(1) << pct(cpu_ms, 0.5) << " ms, p99 " << pct(cpu_ms, 0.99)
+                << " ms, total " << std::setprecision(2) << 1e-3 * total_cpu_ms << " s); loop correction (" << timings.loop_correction_ms.size() << " loops): p50 "
+                << std::setprecision(1) << pct(timings.loop_correction_ms, 0.5) << " ms, p99 "
+                << pct(timings.loop_correction_ms, 0.99) << " ms, max " << pct(timings.loop_correction_ms, 1.0)
+                << " ms\n";
+    }
     if (!diagnose) return 0;
 
     // ---- diagnosis

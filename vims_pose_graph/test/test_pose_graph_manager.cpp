@@ -451,6 +451,56 @@ TEST(PoseGraphManager, ModesSelectTheirStagesOnTheSamePath) {
                std::invalid_argument);
 }
 
+TEST(PoseGraphManager, PartialSolvesAgreeWithFullSolvesAndAreTimed) {
+  // Partial solves (after a loop: from its earliest node on; periodic: the newest 10 keyframes)
+  // against whole-graph solves every time, on the same run.
+  const SimRun& run = runA();
+  PoseGraphManagerOptions o = testOptions();
+  o.graph.window_keyframes = 10;
+  PoseGraphManager partial(o, test::testSequence(), vocabularyFor(o));
+  feed(partial, run);
+  o.graph.window_keyframes = 0;
+  o.graph.loop_solve_from_earliest_node = false;
+  PoseGraphManager full(o, test::testSequence(), vocabularyFor(o));
+  feed(full, run);
+
+  const PoseGraphManagerStats st = partial.stats();
+  EXPECT_EQ(st.loops_accepted, full.stats().loops_accepted);
+  ASSERT_GE(st.loops_accepted, 3u);
+  const std::vector<KeyframePose> a = partial.keyframePoses();
+  const std::vector<KeyframePose> b = full.keyframePoses();
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (a[i].T_w_b.translation() - b[i].T_w_b.translation()).norm());
+  std::cout << "[ INFO     ] partial vs full solves: max keyframe difference " << worst << " m" << std::endl;
+  EXPECT_LT(worst, 0.03);
+
+  // Timing records: one solve per accepted loop (synchronous mode), periodic ones limited to the
+  // window, the end-of-data one over the whole graph; a loop correction latency per loop.
+  const PoseGraphTimings t = partial.timings();
+  EXPECT_EQ(t.solves.size(), st.optimisations);  // one component
+  EXPECT_EQ(t.loop_correction_ms.size(), st.loops_accepted);
+  size_t loop_solves = 0, windowed = 0;
+  for (const OptimisationRecord& r : t.solves) {
+    EXPECT_GE(r.solve_ms, 0.0);
+    EXPECT_LE(r.report.num_free_nodes, r.report.num_nodes);
+    if (r.trigger == OptimisationTrigger::kLoop) ++loop_solves;
+    if (r.trigger == OptimisationTrigger::kPeriodic && r.report.num_nodes > 10) {
+      EXPECT_EQ(r.report.num_free_nodes, 10u);
+      ++windowed;
+    }
+  }
+  EXPECT_EQ(loop_solves, st.loops_accepted);
+  EXPECT_GT(windowed, 0u);
+  ASSERT_FALSE(t.solves.empty());
+  EXPECT_EQ(t.solves.back().trigger, OptimisationTrigger::kFinish);
+  EXPECT_EQ(t.solves.back().report.num_free_nodes, run.keyframes.size());
+  for (double ms : t.loop_correction_ms) EXPECT_GE(ms, 0.0);
+  for (const OptimisationRecord& r : full.timings().solves) EXPECT_EQ(r.report.num_free_nodes, r.report.num_nodes);
+  // Incremental reads return only the newer solves.
+  EXPECT_EQ(partial.timings(t.solves.size() - 1).solves.size(), 1u);
+}
+
 TEST(PoseGraphManager, AsynchronousModeFindsTheSameLoops) {
   const SimRun& run = runA();
   PoseGraphManagerOptions o = testOptions();
@@ -462,6 +512,8 @@ TEST(PoseGraphManager, AsynchronousModeFindsTheSameLoops) {
   EXPECT_EQ(async.stats().keyframes, run.keyframes.size());
   EXPECT_GE(async.stats().loops_accepted, 1u);
   EXPECT_GE(async.stats().optimisations, 1u);
+  // Every accepted loop gets its correction latency once an optimisation including it is applied.
+  EXPECT_EQ(async.timings().loop_correction_ms.size(), async.stats().loops_accepted);
   expectAcceptedLoopsCorrect(async.loopAttempts(), run, run);
   const auto a = sync.keyframePoses();
   const auto b = async.keyframePoses();

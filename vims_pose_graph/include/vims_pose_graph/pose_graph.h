@@ -71,6 +71,21 @@ struct PoseGraphOptions {
   int max_iterations = 50;
   double max_solver_time_s = 2.0;  ///< wall-clock cap of one solve; 0 = no cap
   int num_threads = 1;
+  /// Ceres stops when an iteration lowers the cost by less than this fraction: the end-of-data
+  /// solve and direct PoseGraph4Dof use (Ceres' default), ...
+  double function_tolerance = 1e-6;
+  /// ... and the PoseGraphManager's solves after loops and every N keyframes: their last
+  /// iterations only turn the whole graph by hundredths of a degree (docs/pose_graph.md).
+  double online_function_tolerance = 1e-3;
+
+  /// What the PoseGraphManager optimises (docs/pose_graph.md, "Cost of the optimisation"); the
+  /// end-of-data solve always covers the whole graph.
+  /// After new loops: true = only the keyframes from the earliest node of the new loops on (the
+  /// older ones are held, as VINS-Mono); false = the whole graph.
+  bool loop_solve_from_earliest_node = true;
+  /// Periodic solves (no new loop; the yaw factors of the newest keyframes): only the newest
+  /// this many keyframes of the run, the older ones held; 0 = the whole graph.
+  int window_keyframes = 100;
 
   /// Keys as the field names, with `_deg` instead of `_rad` for angles. Unknown keys and
   /// out-of-range values throw ConfigError naming the key.
@@ -123,6 +138,15 @@ struct PoseGraphSnapshot {
   std::vector<SequentialEdge> sequential_edges;
   std::vector<LoopEdge> loop_edges;  ///< enabled ones only
   std::vector<YawMeasurement> yaw_measurements;
+
+  /// Partial solve: nodes [0, first_free_node) are held at their poses (they fix the gauge) and
+  /// factors between held nodes are left out; 0 = full solve. Exact when the held part is
+  /// already at its optimum given the rest, an approximation otherwise (docs/pose_graph.md,
+  /// "Cost of the optimisation").
+  size_t first_free_node = 0;
+  /// Loops with an id below this were in a previous solve. With a Cauchy loop loss, the convex
+  /// Huber stage runs only when a newer loop starts outside the loss scale; 0 = every loop is new.
+  LoopEdgeId first_new_loop_id = 0;
 };
 
 struct LoopEdgeResidual {
@@ -130,18 +154,32 @@ struct LoopEdgeResidual {
   double whitened_norm = 0.0;  ///< |diag(sqrt_info) r| after the solve (in sigmas)
 };
 
+/// One Ceres run of a solve (Cauchy loops: a Huber stage, then a Cauchy stage).
+struct PoseGraphStageReport {
+  std::string loop_loss;             ///< the loop loss of this stage
+  int iterations = 0;
+  double build_time_s = 0.0;         ///< building the Ceres problem
+  double solver_time_s = 0.0;        ///< ceres::Solve, all of it
+  double preprocessor_time_s = 0.0;  ///< of which in Ceres' preprocessing (ordering, symbolic factorisation)
+  double linear_solver_time_s = 0.0; ///< of which in the linear solver
+  double jacobian_time_s = 0.0;      ///< of which evaluating residuals and Jacobians
+  std::string termination;           ///< Ceres' message
+};
+
 struct PoseGraphReport {
   bool solved = false;  ///< false when there was nothing to optimise or Ceres failed
-  int iterations = 0;
+  int iterations = 0;   ///< over all stages
   double initial_cost = 0.0;
   double final_cost = 0.0;
   double solve_time_s = 0.0;
   size_t num_nodes = 0;
+  size_t num_free_nodes = 0;  ///< nodes optimised (the others held at their snapshot poses)
   size_t num_sequential_edges = 0;
   size_t num_loop_edges = 0;  ///< enabled loop edges used
   size_t num_yaw_factors = 0;
   bool yaw_gauge_fixed = false;  ///< node 0's yaw held constant (no yaw factors)
   std::string message;           ///< Ceres' termination message
+  std::vector<PoseGraphStageReport> stages;
   std::vector<LoopEdgeResidual> loop_residuals;
 };
 

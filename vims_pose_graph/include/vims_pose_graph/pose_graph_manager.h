@@ -16,6 +16,7 @@
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -97,6 +98,27 @@ struct PoseGraphManagerStats {
   bool relocalised = false;
 };
 
+/// Why the manager optimised.
+enum class OptimisationTrigger { kLoop, kPeriodic, kFinish };
+std::string toString(OptimisationTrigger trigger);
+
+/// One solve of one component (benchmarks, replay; docs/pose_graph.md, "Cost of the optimisation").
+struct OptimisationRecord {
+  OptimisationTrigger trigger = OptimisationTrigger::kPeriodic;
+  double t_keyframe = 0.0;    ///< time of the newest keyframe when it ran
+  double solve_ms = 0.0;      ///< PoseGraph4Dof::solve, wall clock
+  double solve_cpu_ms = 0.0;  ///< its CPU time on the calling thread (Ceres runs num_threads = 1 by default)
+  PoseGraphReport report;     ///< without loop residuals
+};
+
+/// Timing of the optimisations so far.
+struct PoseGraphTimings {
+  std::vector<OptimisationRecord> solves;
+  /// Per accepted loop: wall time from its acceptance to the applied result of the first
+  /// optimisation that included it [ms] (the loop correction latency).
+  std::vector<double> loop_correction_ms;
+};
+
 class PoseGraphManager {
  public:
   /// `vocabulary` must match the mode's descriptor (vocabularyPath(); see loadVocabulary).
@@ -154,6 +176,8 @@ class PoseGraphManager {
   std::vector<LoopAttempt> takeNewLoopAttempts();
   MapContents mapContents() const;
   PoseGraphManagerStats stats() const;
+  /// The solves from index `first_solve` on (0: all) and every loop correction latency so far.
+  PoseGraphTimings timings(size_t first_solve = 0) const;
   /// The detection of the most recent query keyframe (diagnostics, tests).
   std::optional<DetectionResult> lastDetection() const;
   /// Runs `f` on the map under the lock (tests, tools). `f` must not call back into the manager.
@@ -195,9 +219,19 @@ class PoseGraphManager {
   void addMagneticDraft(const std::optional<MagneticSubmapDraft>& draft);
   void acceptLoop(const LoopAttempt& attempt);
   void pruneBuffers();
-  /// Solves the reference component and, if different, the current run's component.
-  void optimiseInline();
-  void requestOptimisation();
+  /// Synchronous: solves the reference component and, if different, the current run's
+  /// component now. Asynchronous: wakes the optimiser thread (requests during a solve merge).
+  void requestOptimisation(OptimisationTrigger trigger);
+  /// Snapshots of the components to optimise (reference component, and the run's if separate),
+  /// with the part to optimise for this trigger (docs/pose_graph.md, "Cost of the optimisation").
+  std::vector<ComponentSnapshot> takeSnapshots(OptimisationTrigger trigger) const;
+  /// Solves the snapshots and records their timing (no lock needed).
+  std::vector<PoseGraphSolution> solveSnapshots(const std::vector<ComponentSnapshot>& snapshots,
+                                                OptimisationTrigger trigger, double t_keyframe,
+                                                std::vector<OptimisationRecord>* records) const;
+  /// Applies solutions and records the loop correction latency of the loops they include.
+  void applySolutions(const std::vector<ComponentSnapshot>& snapshots, const std::vector<PoseGraphSolution>& solutions,
+                      std::vector<OptimisationRecord> records, size_t loops_included);
 
   // Threads.
   void processingLoop();
@@ -243,6 +277,14 @@ class PoseGraphManager {
   size_t attempts_taken_ = 0;
   std::optional<DetectionResult> last_detection_;
   PoseGraphManagerStats stats_;
+  PoseGraphTimings timings_;
+  /// Loops no applied optimisation has included yet, oldest first.
+  struct AwaitingLoop {
+    std::chrono::steady_clock::time_point accepted;
+    LoopEdgeId id;
+    PoseGraphNodeId earliest_node;  ///< min(match, query)
+  };
+  std::deque<AwaitingLoop> loops_awaiting_correction_;
 
   // ---- asynchronous mode (queue_mutex_)
   mutable std::mutex queue_mutex_;
@@ -252,6 +294,7 @@ class PoseGraphManager {
   std::deque<Event> events_;
   bool processing_busy_ = false;
   bool optimisation_requested_ = false;
+  OptimisationTrigger requested_trigger_ = OptimisationTrigger::kPeriodic;  ///< a loop wins when merged
   bool optimising_ = false;
   bool stop_ = false;
   std::thread processing_thread_;
