@@ -33,4 +33,9 @@ if(TARGET vims_ros AND TARGET vims_sim AND CATKIN_ENABLE_TESTING)
     LIBS vims_tracking_core vims_ros)
   vims_require_sequence(_ctest_vims_gtest_test_vims_tracking_sequence sim_tank30)
   set_property(TEST _ctest_vims_gtest_test_vims_tracking_sequence APPEND PROPERTY FIXTURES_REQUIRED sim_tank_blackout10)
+
+  # Front-end CPU time per frame and a checksum of the tracks on a sequence (docs/frontends.md).
+  add_executable(bench_vims_tracker ${CMAKE_CURRENT_LIST_DIR}/bench/bench_tracker.cpp)
+  target_link_libraries(bench_vims_tracker vims_tracking_core vims_ros)
+  set_target_properties(bench_vims_tracker PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/vims)
 endif()

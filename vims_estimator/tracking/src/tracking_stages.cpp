@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -11,10 +13,13 @@ namespace vims {
 
 namespace {
 
-// Shi-Tomasi structure tensor: 3x3 averaging block and 3x3 Sobel derivatives, the usual choice
+// Shi-Tomasi structure tensor: 3x3 summing block and 3x3 Sobel derivatives, the usual choice
 // for KLT features (small blocks localise corners to the pixel the tracker starts from).
-constexpr int kCornerBlockSize = 3;
-constexpr int kCornerSobelAperture = 3;
+// OpenCV's cornerMinEigenVal scales the 8-bit Sobel gradients by 1 / (2^(aperture - 1) * block *
+// 255) = 1/3060; the response is on that scale (min_corner_response is given on it).
+constexpr double kGradientScale = 1.0 / (4.0 * 3.0 * 255.0);
+// Context the response needs around a pixel: one for the block, one for the gradient.
+constexpr int kResponseContextPx = 2;
 // cv::findFundamentalMat(FM_RANSAC) silently switches to LMedS below 15 points, and LMedS on
 // near-exact data keeps only its 7-point sample (it rejected n - 7 of n perfect matches in
 // tests). With so few tracks a fundamental matrix is also too weakly determined to judge them.
@@ -32,7 +37,93 @@ void occupy(cv::Mat* occupancy, const cv::Point2f& pixel, double radius) {
   cv::circle(*occupancy, centre, static_cast<int>(std::lround(radius)), cv::Scalar(0), cv::FILLED);
 }
 
+/// True when `r[x]` is the maximum of its 3x3 neighbourhood (the rows above and below given).
+bool isLocalMaximum(const float* above, const float* r, const float* below, int x) {
+  const float v = r[x];
+  return v >= above[x - 1] && v >= above[x] && v >= above[x + 1] && v >= r[x - 1] && v >= r[x + 1] &&
+         v >= below[x - 1] && v >= below[x] && v >= below[x + 1];
+}
+
+/// Products of the 3x3 Sobel gradients (dx^2, dx dy, dy^2) at `w` pixels of a row, from the rows
+/// above, at and below it (each pointing at the first pixel; one more pixel is read on either
+/// side). __restrict: the 8-bit rows could alias the products as far as the compiler knows,
+/// which kept the loop from being vectorised.
+void gradientProductRow(const std::uint8_t* __restrict up, const std::uint8_t* __restrict mid,
+                        const std::uint8_t* __restrict down, int w, std::int32_t* __restrict xx,
+                        std::int32_t* __restrict xy, std::int32_t* __restrict yy) {
+  for (int i = 0; i < w; ++i) {
+    // Sobel 3x3: [-1 0 1] x [1 2 1]^T and its transpose.
+    const int dx = (up[i + 1] - up[i - 1]) + 2 * (mid[i + 1] - mid[i - 1]) + (down[i + 1] - down[i - 1]);
+    const int dy = (down[i - 1] - up[i - 1]) + 2 * (down[i] - up[i]) + (down[i + 1] - up[i + 1]);
+    xx[i] = dx * dx;
+    xy[i] = dx * dy;
+    yy[i] = dy * dy;
+  }
+}
+
 }  // namespace
+
+void shiTomasiResponse(const cv::Mat& image, const cv::Rect& roi, cv::Mat* response, CornerResponseBuffers* buffers) {
+  if (image.empty() || image.type() != CV_8UC1) {
+    throw std::invalid_argument("shiTomasiResponse: expects a non-empty CV_8UC1 image");
+  }
+  const cv::Rect inside(kResponseContextPx, kResponseContextPx, image.cols - 2 * kResponseContextPx,
+                        image.rows - 2 * kResponseContextPx);
+  if (roi.width > 0 && roi.height > 0 && (roi & inside) != roi) {
+    throw std::invalid_argument("shiTomasiResponse: roi must stay 2 px inside the image");
+  }
+  response->create(image.size(), CV_32FC1);
+  if (roi.width <= 0 || roi.height <= 0) return;
+
+  // Gradient products of three image rows (ring buffer, columns roi.x-1 .. roi.x+width) and
+  // their column sums; all exact in 32 bits (|gradient| <= 1020, block sums <= 9 * 1020^2).
+  const int w = roi.width + 2;
+  std::vector<std::int32_t>& products = buffers->products;
+  products.resize(static_cast<std::size_t>(12 * w));
+  std::int32_t* const column_sums = products.data() + 9 * w;
+  auto product_row = [&](int r) {
+    std::int32_t* xx = products.data() + 3 * w * ((r - roi.y + 1) % 3);
+    gradientProductRow(image.ptr<std::uint8_t>(r - 1) + roi.x - 1, image.ptr<std::uint8_t>(r) + roi.x - 1,
+                       image.ptr<std::uint8_t>(r + 1) + roi.x - 1, w, xx, xx + w, xx + 2 * w);
+  };
+  std::vector<double>& row = buffers->row;
+  row.resize(static_cast<std::size_t>(3 * roi.width));
+  double* const discriminant = row.data();
+  double* const determinant = discriminant + roi.width;
+  double* const trace = determinant + roi.width;
+  const double eigen_scale = 2.0 * kGradientScale * kGradientScale;
+  product_row(roi.y - 1);
+  product_row(roi.y);
+  for (int y = roi.y; y < roi.y + roi.height; ++y) {
+    product_row(y + 1);
+    const std::int32_t* s0 = products.data();
+    const std::int32_t* s1 = s0 + 3 * w;
+    const std::int32_t* s2 = s1 + 3 * w;
+    for (int i = 0; i < 3 * w; ++i) column_sums[i] = s0[i] + s1[i] + s2[i];  // the three slots, any order
+    const std::int32_t* cxx = column_sums;
+    const std::int32_t* cxy = cxx + w;
+    const std::int32_t* cyy = cxy + w;
+    for (int x = 0; x < roi.width; ++x) {
+      // Block sums (< 2^24) and their products (< 2^47) are exact in double.
+      const double sxx = cxx[x] + cxx[x + 1] + cxx[x + 2];
+      const double sxy = cxy[x] + cxy[x + 1] + cxy[x + 2];
+      const double syy = cyy[x] + cyy[x + 1] + cyy[x + 2];
+      // Eigenvalues of [sxx sxy; sxy syy]: (T -+ sqrt(T^2 - 4 det)) / 2 with T^2 - 4 det =
+      // (sxx - syy)^2 + 4 sxy^2; the smaller one is 2 det / (T + sqrt(...)).
+      discriminant[x] = (sxx - syy) * (sxx - syy) + 4.0 * sxy * sxy;
+      determinant[x] = sxx * syy - sxy * sxy;
+      // The trace is an integer, 0 only without any gradient (then det = 0 and the response is
+      // 0 / 1 = 0); the +1 there keeps the division below free of a branch (and vectorised).
+      const std::int32_t trace_sum = cxx[x] + cxx[x + 1] + cxx[x + 2] + cyy[x] + cyy[x + 1] + cyy[x + 2];
+      trace[x] = trace_sum + (trace_sum == 0);
+    }
+    cv::hal::sqrt64f(discriminant, discriminant, roi.width);
+    float* out = response->ptr<float>(y) + roi.x;
+    for (int x = 0; x < roi.width; ++x) {
+      out[x] = static_cast<float>(eigen_scale * determinant[x] / (trace[x] + discriminant[x]));
+    }
+  }
+}
 
 CornerCandidates findCornerCandidates(const cv::Mat& image, int border_px, double min_response,
                                       double min_quality_level, const cv::Mat& free_mask,
@@ -44,29 +135,42 @@ CornerCandidates findCornerCandidates(const cv::Mat& image, int border_px, doubl
     throw std::invalid_argument("findCornerCandidates: free_mask must be CV_8UC1 of the image size");
   }
   CornerCandidates result;
-  // The structure tensor needs a pixel of context on each side; keep at least that margin.
-  const int border = std::max(border_px, kCornerBlockSize / 2 + 1);
+  // The response is computed one pixel beyond the border (the 3x3 maximum looks there), and it
+  // needs its own context beyond that.
+  const int border = std::max(border_px, kResponseContextPx + 1);
   if (image.cols <= 2 * border || image.rows <= 2 * border) return result;
 
   CornerResponseBuffers local_buffers;
   CornerResponseBuffers& work = buffers ? *buffers : local_buffers;
   cv::Mat& response = work.response;
-  cv::cornerMinEigenVal(image, response, kCornerBlockSize, kCornerSobelAperture);
   const cv::Rect inner(border, border, image.cols - 2 * border, image.rows - 2 * border);
+  const cv::Rect with_ring(inner.x - 1, inner.y - 1, inner.width + 2, inner.height + 2);
+  shiTomasiResponse(image, with_ring, &response, &work);
   double strongest = 0.0;
   cv::minMaxLoc(response(inner), nullptr, &strongest);
   result.max_response = static_cast<float>(strongest);
   const double threshold = std::max(min_response, min_quality_level * strongest);
   if (!(strongest > 0.0) || strongest < threshold) return result;
 
-  cv::Mat& local_max = work.local_max;
-  cv::dilate(response, local_max, cv::Mat());  // 3x3 maximum filter
   for (int y = inner.y; y < inner.y + inner.height; ++y) {
+    const float* above = response.ptr<float>(y - 1);
     const float* r = response.ptr<float>(y);
-    const float* m = local_max.ptr<float>(y);
+    const float* below = response.ptr<float>(y + 1);
     const std::uint8_t* free = free_mask.empty() ? nullptr : free_mask.ptr<std::uint8_t>(y);
-    for (int x = inner.x; x < inner.x + inner.width; ++x) {
-      if (r[x] >= threshold && r[x] == m[x] && (!free || free[x])) {
+    const int x_end = inner.x + inner.width;
+    for (int x = inner.x; x < x_end; ++x) {
+      // The mask first: the tracks' discs cover most of the image, so whole occupied 8-pixel
+      // words are skipped at once.
+      if (free) {
+        std::uint64_t word = 1;
+        if (x + 8 <= x_end) std::memcpy(&word, free + x, sizeof(word));
+        if (word == 0) {
+          x += 7;
+          continue;
+        }
+        if (!free[x]) continue;
+      }
+      if (r[x] >= threshold && isLocalMaximum(above, r, below, x)) {
         result.candidates.push_back({cv::Point2f(static_cast<float>(x), static_cast<float>(y)), r[x]});
       }
     }

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "vims_tracking/tracking_stages.h"
@@ -133,6 +136,71 @@ TEST(FindCornerCandidates, FlatImageHasNoneAndCheckerboardHasMany) {
   EXPECT_FLOAT_EQ(masked.max_response, candidates.max_response);
   EXPECT_LT(masked.candidates.size(), candidates.candidates.size());
   for (const vims::CornerCandidate& c : masked.candidates) EXPECT_LT(c.pixel.x, 80);
+}
+
+TEST(ShiTomasiResponse, MatchesOpenCvCornerMinEigenValInsideTheRoi) {
+  // Smoothed noise plus a few hard edges and corners: every kind of structure tensor.
+  cv::Mat image(97, 131, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(image, image, cv::Size(5, 5), 1.2);
+  cv::rectangle(image, cv::Rect(30, 20, 40, 30), cv::Scalar(250), cv::FILLED);
+  image.rowRange(70, 80).setTo(3);
+  cv::Mat expected;
+  cv::cornerMinEigenVal(image, expected, 3, 3);
+  const cv::Rect roi(2, 3, 120, 90);
+  cv::Mat response(image.size(), CV_32FC1, cv::Scalar(-7.0f));
+  vims::CornerResponseBuffers buffers;
+  vims::shiTomasiResponse(image, roi, &response, &buffers);
+  double expected_max = 0.0, strongest = 0.0;
+  cv::minMaxLoc(expected(roi), nullptr, &expected_max);
+  cv::minMaxLoc(response(roi), nullptr, &strongest);
+  ASSERT_GT(expected_max, 1e-3);
+  EXPECT_NEAR(strongest, expected_max, 1e-5 * expected_max);
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      const float got = response.at<float>(y, x);
+      if (!roi.contains(cv::Point(x, y))) {
+        ASSERT_EQ(got, -7.0f) << "outside the roi at " << x << "," << y;
+        continue;
+      }
+      // OpenCV works in float with a cancelling formula: agree to its rounding.
+      ASSERT_NEAR(got, expected.at<float>(y, x), 1e-6 * expected_max + 1e-4 * std::abs(expected.at<float>(y, x)))
+          << "at " << x << "," << y;
+    }
+  }
+  EXPECT_THROW(vims::shiTomasiResponse(image, cv::Rect(1, 3, 20, 20), &response, &buffers), std::invalid_argument);
+  EXPECT_THROW(vims::shiTomasiResponse(image, cv::Rect(100, 3, 30, 20), &response, &buffers), std::invalid_argument);
+}
+
+TEST(FindCornerCandidates, CandidatesAreTheLocalMaximaOfOpenCvsResponse) {
+  cv::Mat image(90, 120, CV_8UC1);
+  cv::RNG rng(11);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(image, image, cv::Size(7, 7), 2.0);
+  const int border = 6;
+  const vims::CornerCandidates found = vims::findCornerCandidates(image, border, 1e-5, 0.01);
+  cv::Mat expected, local_max;
+  cv::cornerMinEigenVal(image, expected, 3, 3);
+  cv::dilate(expected, local_max, cv::Mat());
+  const cv::Rect inner(border, border, image.cols - 2 * border, image.rows - 2 * border);
+  double strongest = 0.0;
+  cv::minMaxLoc(expected(inner), nullptr, &strongest);
+  const double threshold = std::max(1e-5, 0.01 * strongest);
+  std::size_t clear_maxima = 0;  // far from the threshold and from a tie with a neighbour
+  for (int y = inner.y; y < inner.y + inner.height; ++y) {
+    for (int x = inner.x; x < inner.x + inner.width; ++x) {
+      const float r = expected.at<float>(y, x);
+      if (r == local_max.at<float>(y, x) && r > 1.001 * threshold) {
+        ++clear_maxima;
+        const bool listed = std::any_of(found.candidates.begin(), found.candidates.end(),
+                                        [&](const vims::CornerCandidate& c) { return c.pixel == cv::Point2f(x, y); });
+        EXPECT_TRUE(listed) << "local maximum at " << x << "," << y << " missing";
+      }
+    }
+  }
+  EXPECT_GT(clear_maxima, 10u);
+  EXPECT_LE(found.candidates.size(), clear_maxima + 3);  // near-ties may differ in rounding
 }
 
 TEST(SelectCorners, SelectionIsStrongestFirstAndIndependentOfCandidateOrder) {
