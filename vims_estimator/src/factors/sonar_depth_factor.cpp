@@ -65,6 +65,20 @@ Eigen::Vector3d featureInBody(const FeatureObservation& anchor, const Eigen::Iso
   return T_b_c.translation() + lambda * (R_bc * b);
 }
 
+/// Ceres output of both height factors (blocks [pose_k, T_b_c, lambda, td]): r / sigma and the
+/// whitened Jacobians in the ambient parametrisation of the pose blocks.
+bool writeWhitened(double r, const SonarDepthJacobians& J, double inv_sigma, double const* const* parameters,
+                   double* residuals, double** jacobians) {
+  if (!std::isfinite(r)) return false;
+  residuals[0] = inv_sigma * r;
+  if (!jacobians) return true;
+  writePoseJacobian<1>(inv_sigma * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
+  writePoseJacobian<1>(inv_sigma * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
+  if (jacobians[2]) jacobians[2][0] = inv_sigma * J.d_lambda;
+  if (jacobians[3]) jacobians[3][0] = inv_sigma * J.d_td;
+  return true;
+}
+
 SonarGateResult gate(double height_difference, double sigma, const SonarDepthOptions& options) {
   SonarGateResult g;
   g.height_difference = height_difference;
@@ -123,22 +137,11 @@ SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double rang
 }
 
 bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const Eigen::Isometry3d T_l_bk = poseBlockToIsometry(parameters[0]);
-  const Eigen::Isometry3d T_b_c = poseBlockToIsometry(parameters[1]);
-  const double lambda = parameters[2][0];
-  const double td = parameters[3][0];
-
   SonarDepthJacobians J;
-  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, T_l_bk, T_b_c, lambda, td, jacobians ? &J : nullptr);
-  if (!std::isfinite(r)) return false;
-  residuals[0] = inv_sigma_ * r;
-  if (!jacobians) return true;
-
-  writePoseJacobian<1>(inv_sigma_ * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
-  writePoseJacobian<1>(inv_sigma_ * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
-  if (jacobians[2]) jacobians[2][0] = inv_sigma_ * J.d_lambda;
-  if (jacobians[3]) jacobians[3][0] = inv_sigma_ * J.d_td;
-  return true;
+  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, poseBlockToIsometry(parameters[0]),
+                                      poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
+                                      jacobians ? &J : nullptr);
+  return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);
 }
 
 SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, double seabed_height, double sigma)
@@ -152,14 +155,7 @@ bool SeabedHeightFactor::Evaluate(double const* const* parameters, double* resid
   const double r = seabedHeightResidual(anchor_, seabed_height_, poseBlockToIsometry(parameters[0]),
                                         poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
                                         jacobians ? &J : nullptr);
-  if (!std::isfinite(r)) return false;
-  residuals[0] = inv_sigma_ * r;
-  if (!jacobians) return true;
-  writePoseJacobian<1>(inv_sigma_ * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
-  writePoseJacobian<1>(inv_sigma_ * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
-  if (jacobians[2]) jacobians[2][0] = inv_sigma_ * J.d_lambda;
-  if (jacobians[3]) jacobians[3][0] = inv_sigma_ * J.d_td;
-  return true;
+  return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);
 }
 
 }  // namespace vims
