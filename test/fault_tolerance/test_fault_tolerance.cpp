@@ -170,6 +170,38 @@ bool contains(const std::string& text, const std::string& what) { return text.fi
 /// run's error. `vio_resets_allowed`: a fault after which the VIO restarts in a new, unrelated
 /// odom frame (then only the global trajectory, which links the sessions, is comparable).
 /// `max_ate_ratio`: the bound on (ATE with the fault) / (clean ATE); the issue asks for 2.
+/// One sensor output over a fault: rows inside [begin, end) and how they are, then the recovery.
+struct RecoveryScan {
+  int inside = 0;                ///< rows inside the fault
+  int inside_ok = 0;             ///< of those, rows in the good state
+  double first_ok_after = NAN;   ///< first good row from the fault's end on
+  int settled = 0;               ///< rows from fault.end + settle_s on
+  int settled_ok = 0;            ///< of those, rows in the good state
+};
+
+/// Scans `csv` by its `t` column; a row is good when `column` equals `good_value`.
+RecoveryScan scanRecovery(const Csv& csv, const std::string& column, const std::string& good_value, const Span& fault,
+                          double settle_s) {
+  const int t_col = csv.column("t");
+  const int good_col = csv.column(column);
+  RecoveryScan scan;
+  for (const auto& row : csv.rows) {
+    const double t = std::stod(row.at(t_col));
+    const bool good = row.at(good_col) == good_value;
+    if (t >= fault.begin && t < fault.end) {
+      ++scan.inside;
+      scan.inside_ok += good ? 1 : 0;
+    }
+    if (t < fault.end) continue;
+    if (good && std::isnan(scan.first_ok_after)) scan.first_ok_after = t;
+    if (t >= fault.end + settle_s) {
+      ++scan.settled;
+      scan.settled_ok += good ? 1 : 0;
+    }
+  }
+  return scan;
+}
+
 void expectFinishedAndAccurate(const OfflineRun& run, const SequenceTruth& truth, bool vio_resets_allowed,
                                double max_ate_ratio = 2.0) {
   ASSERT_EQ(run.result.exit_code, 0) << run.result.output;
@@ -255,28 +287,14 @@ TEST(FaultTolerance, SonarOff) {
   const Span fault = faultSpan(truth, "sonar_off");
   ASSERT_EQ(run.result.exit_code, 0) << run.result.output;
   EXPECT_TRUE(contains(run.result.output, "re-acquiring the trend")) << run.result.output;
-  const Csv sonar = readCsv(run.out / "sonar_filtered.csv");
-  const int t_col = sonar.column("t");
-  const int status_col = sonar.column("status");
-  int during = 0, after = 0, after_ok = 0;
-  double first_ok_after = NAN;
-  for (const auto& row : sonar.rows) {
-    const double t = std::stod(row.at(t_col));
-    if (t >= fault.begin && t < fault.end) ++during;
-    if (t < fault.end) continue;
-    const bool ok = row.at(status_col) == "ok";
-    if (ok && std::isnan(first_ok_after)) first_ok_after = t;
-    if (t >= fault.end + 5.0) {
-      ++after;
-      after_ok += ok ? 1 : 0;
-    }
-  }
-  EXPECT_EQ(during, 0) << "sonar rows inside the outage: the fixture did not remove the pings";
-  ASSERT_FALSE(std::isnan(first_ok_after)) << "the sonar filter never returned to status ok";
-  EXPECT_LT(first_ok_after - fault.end, 5.0) << "the sonar filter took too long to re-acquire";
-  ASSERT_GT(after, 0);
+  const RecoveryScan sonar =
+      scanRecovery(readCsv(run.out / "sonar_filtered.csv"), "status", "ok", fault, /*settle_s=*/5.0);
+  EXPECT_EQ(sonar.inside, 0) << "sonar rows inside the outage: the fixture did not remove the pings";
+  ASSERT_FALSE(std::isnan(sonar.first_ok_after)) << "the sonar filter never returned to status ok";
+  EXPECT_LT(sonar.first_ok_after - fault.end, 5.0) << "the sonar filter took too long to re-acquire";
+  ASSERT_GT(sonar.settled, 0);
   // The simulator's 3 % multipath outliers and 1 % dropouts stay rejected; the rest is ok.
-  EXPECT_GT(static_cast<double>(after_ok) / after, 0.9);
+  EXPECT_GT(static_cast<double>(sonar.settled_ok) / sonar.settled, 0.9);
   // Without a range the VIO holds new features at the seabed height the sonar last measured
   // (SeabedHeightFactor): VIO ATE 1.16x the clean run's. Visual-inertial only, the scale drifted
   // and the VIO ATE reached 2.05x.
@@ -292,27 +310,13 @@ TEST(FaultTolerance, MagnetometerOff) {
   const Span fault = faultSpan(truth, "mag_off");
   ASSERT_EQ(run.result.exit_code, 0) << run.result.output;
   EXPECT_TRUE(contains(run.result.output, "magnetometer gap")) << run.result.output;
-  const Csv windows = readCsv(run.out / "mag_signatures.csv");
-  const int t_col = windows.column("t");
-  const int valid_col = windows.column("valid");
-  int valid_inside = 0, after = 0, valid_after = 0;
-  double first_valid_after = NAN;
-  for (const auto& row : windows.rows) {
-    const double t = std::stod(row.at(t_col));
-    const bool valid = row.at(valid_col) == "1";
-    if (t > fault.begin && t < fault.end) valid_inside += valid ? 1 : 0;
-    if (t < fault.end) continue;
-    if (valid && std::isnan(first_valid_after)) first_valid_after = t;
-    if (t >= fault.end + 10.0) {
-      ++after;
-      valid_after += valid ? 1 : 0;
-    }
-  }
-  EXPECT_EQ(valid_inside, 0) << "valid signatures centred inside the magnetometer outage";
-  ASSERT_FALSE(std::isnan(first_valid_after)) << "no valid signature after the magnetometer returned";
-  EXPECT_LT(first_valid_after - fault.end, 10.0) << "signatures took too long to become valid again";
-  ASSERT_GT(after, 0);
-  EXPECT_GT(static_cast<double>(valid_after) / after, 0.9);
+  const RecoveryScan windows =
+      scanRecovery(readCsv(run.out / "mag_signatures.csv"), "valid", "1", fault, /*settle_s=*/10.0);
+  EXPECT_EQ(windows.inside_ok, 0) << "valid signatures centred inside the magnetometer outage";
+  ASSERT_FALSE(std::isnan(windows.first_ok_after)) << "no valid signature after the magnetometer returned";
+  EXPECT_LT(windows.first_ok_after - fault.end, 10.0) << "signatures took too long to become valid again";
+  ASSERT_GT(windows.settled, 0);
+  EXPECT_GT(static_cast<double>(windows.settled_ok) / windows.settled, 0.9);
   expectFinishedAndAccurate(run, truth, false);
 }
 
