@@ -29,14 +29,46 @@ std::vector<std::vector<uint32_t>> descriptorsByPoint(const DescribedPoints& poi
 
 /// Distance of a described point to a keypoint: the best over the point's descriptors whose
 /// level is within max_level_difference of the keypoint's octave (< 0: all levels).
-int pointDistance(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
-                  const BinaryDescriptor& other, int octave = 0, int max_level_difference = -1) {
+inline int pointDistance(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
+                         const BinaryDescriptor& other, int octave, int max_level_difference) {
   int best = 257;
   for (uint32_t d : descriptor_ids) {
     if (max_level_difference >= 0 && std::abs(points.level_of_descriptor[d] - octave) > max_level_difference) continue;
     best = std::min(best, hammingDistance(points.descriptors[d], other));
   }
   return best;
+}
+
+/// pointDistance() of one point to every keypoint of `candidate` into `distance`; returns the
+/// index of the first smallest. The loop detector's hot loop, hence the popcount dispatch.
+VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points,
+                                                   const std::vector<uint32_t>& descriptor_ids,
+                                                   const VisualSubmap& candidate, int max_level_difference,
+                                                   std::vector<int>* distance) {
+  size_t best = 0;
+  for (size_t k = 0; k < candidate.keypoints.size(); ++k) {
+    (*distance)[k] = pointDistance(points, descriptor_ids, candidate.descriptors[k], candidate.keypoints[k].octave,
+                                   max_level_difference);
+    if ((*distance)[k] < (*distance)[best]) best = k;
+  }
+  return best;
+}
+
+/// Whether any keypoint of `submap` within sqrt(radius2) px of `uv` is within max_distance of
+/// the point (the covisibility check's inner loop).
+VIMS_POPCOUNT_DISPATCH bool hasMatchingKeypointNear(const DescribedPoints& points,
+                                                    const std::vector<uint32_t>& descriptor_ids,
+                                                    const VisualSubmap& submap, const Eigen::Vector2d& uv,
+                                                    double radius2, int max_distance, int max_level_difference) {
+  for (size_t k = 0; k < submap.keypoints.size(); ++k) {
+    const double dx = submap.keypoints[k].pt.x - uv.x();
+    const double dy = submap.keypoints[k].pt.y - uv.y();
+    if (dx * dx + dy * dy > radius2) continue;
+    if (pointDistance(points, descriptor_ids, submap.descriptors[k], submap.keypoints[k].octave,
+                      max_level_difference) <= max_distance)
+      return true;
+  }
+  return false;
 }
 }  // namespace
 
@@ -80,12 +112,7 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
   std::vector<int> distance(num_keypoints);
   for (uint32_t p = 0; p < by_point.size(); ++p) {
     if (by_point[p].empty()) continue;
-    size_t best = 0;
-    for (size_t k = 0; k < num_keypoints; ++k) {
-      distance[k] = pointDistance(points, by_point[p], candidate.descriptors[k], candidate.keypoints[k].octave,
-                                  max_level_difference);
-      if (distance[k] < distance[best]) best = k;
-    }
+    const size_t best = distancesToKeypoints(points, by_point[p], candidate, max_level_difference, &distance);
     if (distance[best] > max_distance) continue;
     if (ratio < 1.0) {
       // Second best among keypoints at another place: the same corner detected on another
@@ -252,16 +279,9 @@ int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMa
       if (!projectToPixel(camera_, T_cn_odomq * query.points.p_odom[point], &uv)) continue;
       if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() >= camera_.width || uv.y() >= camera_.height) continue;
       ++projected;
-      for (size_t k = 0; k < n.visual.keypoints.size(); ++k) {
-        const double dx = n.visual.keypoints[k].pt.x - uv.x();
-        const double dy = n.visual.keypoints[k].pt.y - uv.y();
-        if (dx * dx + dy * dy > r2) continue;
-        if (pointDistance(query.points, by_point[point], n.visual.descriptors[k], n.visual.keypoints[k].octave,
-                          options_.match_max_level_difference) <= options_.match_max_distance) {
-          ++confirmed;
-          break;
-        }
-      }
+      if (hasMatchingKeypointNear(query.points, by_point[point], n.visual, uv, r2, options_.match_max_distance,
+                                  options_.match_max_level_difference))
+        ++confirmed;
     }
     if (projected >= options_.covisibility_min_points &&
         static_cast<double>(confirmed) >= options_.covisibility_min_ratio * projected)

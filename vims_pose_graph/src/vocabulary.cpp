@@ -124,7 +124,7 @@ struct Cluster {
 };
 
 /// Nearest center (smallest Hamming distance, ties to the lowest index).
-size_t nearestCenter(const BinaryDescriptor& d, const std::vector<BinaryDescriptor>& centers) {
+VIMS_POPCOUNT_DISPATCH size_t nearestCenter(const BinaryDescriptor& d, const std::vector<BinaryDescriptor>& centers) {
   size_t best = 0;
   int best_dist = std::numeric_limits<int>::max();
   for (size_t c = 0; c < centers.size(); ++c) {
@@ -324,7 +324,7 @@ void BinaryVocabulary::computeIdf(const std::vector<std::vector<BinaryDescriptor
 // Queries
 // ---------------------------------------------------------------------------------------------
 
-uint32_t BinaryVocabulary::descend(const BinaryDescriptor& descriptor, int record_depth, uint32_t* recorded) const {
+VIMS_POPCOUNT_DISPATCH uint32_t BinaryVocabulary::descend(const BinaryDescriptor& descriptor, int record_depth, uint32_t* recorded) const {
   uint32_t node = 0;
   if (recorded) *recorded = 0;
   while (nodes_[node].num_children > 0) {
