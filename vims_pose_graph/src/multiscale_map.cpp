@@ -23,8 +23,10 @@ bool isFinitePose(const Eigen::Isometry3d& T) {
          (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
 }
 
-uint64_t fnv1a64(const uint8_t* data, size_t size) {
-  uint64_t h = 1469598103934665603ull;
+constexpr uint64_t kFnvOffsetBasis = 1469598103934665603ull;
+
+/// FNV-1a 64 of `size` bytes, continuing from `h` (kFnvOffsetBasis for a fresh hash).
+uint64_t fnv1a64(const uint8_t* data, size_t size, uint64_t h = kFnvOffsetBasis) {
   for (size_t i = 0; i < size; ++i) {
     h ^= data[i];
     h *= 1099511628211ull;
@@ -371,44 +373,6 @@ constexpr size_t kHeaderBytes = 8 + 4 + 8;  // magic, version, payload size
 /// reader runs out of bytes.
 constexpr uint32_t kMaxCount = 100000000u;
 
-class ByteWriter {
- public:
-  void u8(uint8_t v) { bytes.push_back(v); }
-  void u32(uint32_t v) {
-    for (int i = 0; i < 4; ++i) bytes.push_back(static_cast<uint8_t>(v >> (8 * i)));
-  }
-  void u64(uint64_t v) {
-    for (int i = 0; i < 8; ++i) bytes.push_back(static_cast<uint8_t>(v >> (8 * i)));
-  }
-  void i32(int32_t v) { u32(static_cast<uint32_t>(v)); }
-  void f32(float v) {
-    uint32_t u;
-    std::memcpy(&u, &v, 4);
-    u32(u);
-  }
-  void f64(double v) {
-    uint64_t u;
-    std::memcpy(&u, &v, 8);
-    u64(u);
-  }
-  void vec(const Eigen::Vector3d& v) {
-    for (int i = 0; i < 3; ++i) f64(v[i]);
-  }
-  void str(const std::string& s) {
-    u32(static_cast<uint32_t>(s.size()));
-    bytes.insert(bytes.end(), s.begin(), s.end());
-  }
-  void raw(const uint8_t* p, size_t n) { bytes.insert(bytes.end(), p, p + n); }
-  /// Translation and the row-major rotation matrix: lossless, so a loaded map re-serialises to
-  /// the same bytes (a quaternion round trip changes the last bits).
-  void pose(const Eigen::Isometry3d& T) {
-    vec(T.translation());
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) f64(T.linear()(r, c));
-  }
-  std::vector<uint8_t> bytes;
-};
-
 class ByteReader {
  public:
   ByteReader(const std::vector<uint8_t>& bytes, size_t begin, size_t end, const std::string& source)
@@ -502,13 +466,88 @@ class ByteReader {
 
 }  // namespace
 
-std::vector<uint8_t> MultiScaleMap::serialize(const std::string& vocabulary_path) const {
-  ByteWriter w;
-  w.raw(reinterpret_cast<const uint8_t*>(kMagic), 8);
-  w.u32(kFileVersion);
-  w.u64(0);  // payload size, patched below
-  const size_t payload_begin = w.bytes.size();
+/// Little-endian writer of the map format with three targets: counting only (the payload size
+/// must precede the payload, and the checksum covers it), memory (serialize()), or a file
+/// streamed through a 1 MiB buffer (save(): a 750 s map is ~330 MB, which must not be held
+/// twice). The checksum is FNV-1a 64 of everything written, kept incrementally.
+class MapFileWriter {
+ public:
+  /// Counts bytes only.
+  MapFileWriter() = default;
+  /// Into memory; take the bytes with release().
+  explicit MapFileWriter(std::vector<uint8_t>* memory) : memory_(memory) {}
+  /// Streams to `out` (opened in binary mode).
+  explicit MapFileWriter(std::ostream* out) : out_(out) {}
 
+  void u8(uint8_t v) { raw(&v, 1); }
+  void u32(uint32_t v) {
+    uint8_t b[4];
+    for (int i = 0; i < 4; ++i) b[i] = static_cast<uint8_t>(v >> (8 * i));
+    raw(b, 4);
+  }
+  void u64(uint64_t v) {
+    uint8_t b[8];
+    for (int i = 0; i < 8; ++i) b[i] = static_cast<uint8_t>(v >> (8 * i));
+    raw(b, 8);
+  }
+  void i32(int32_t v) { u32(static_cast<uint32_t>(v)); }
+  void f32(float v) {
+    uint32_t u;
+    std::memcpy(&u, &v, 4);
+    u32(u);
+  }
+  void f64(double v) {
+    uint64_t u;
+    std::memcpy(&u, &v, 8);
+    u64(u);
+  }
+  void vec(const Eigen::Vector3d& v) {
+    for (int i = 0; i < 3; ++i) f64(v[i]);
+  }
+  void str(const std::string& s) {
+    u32(static_cast<uint32_t>(s.size()));
+    raw(reinterpret_cast<const uint8_t*>(s.data()), s.size());
+  }
+  void raw(const uint8_t* p, size_t n) {
+    size_ += n;
+    if (!memory_ && !out_) return;
+    buffer_.insert(buffer_.end(), p, p + n);
+    if (buffer_.size() >= kFlushBytes) flush();
+  }
+  /// Translation and the row-major rotation matrix: lossless, so a loaded map re-serialises to
+  /// the same bytes (a quaternion round trip changes the last bits).
+  void pose(const Eigen::Isometry3d& T) {
+    vec(T.translation());
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) f64(T.linear()(r, c));
+  }
+  /// Appends the checksum of everything written so far and flushes.
+  void finishWithChecksum() {
+    flush();
+    u64(hash_);
+    flush();
+  }
+  /// Bytes written (or counted) so far.
+  uint64_t size() const { return size_; }
+
+ private:
+  static constexpr size_t kFlushBytes = size_t{1} << 20;
+
+  void flush() {
+    hash_ = fnv1a64(buffer_.data(), buffer_.size(), hash_);
+    if (memory_) memory_->insert(memory_->end(), buffer_.begin(), buffer_.end());
+    if (out_) out_->write(reinterpret_cast<const char*>(buffer_.data()), static_cast<std::streamsize>(buffer_.size()));
+    buffer_.clear();
+  }
+
+  std::vector<uint8_t>* memory_ = nullptr;
+  std::ostream* out_ = nullptr;
+  std::vector<uint8_t> buffer_;
+  uint64_t size_ = 0;
+  uint64_t hash_ = kFnvOffsetBasis;
+};
+
+void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary_path) const {
   w.str(vocabulary_ ? vocabulary_->descriptorType() : std::string());
   w.str(vocabulary_path);
   w.u64(vocabulary_checksum_);
@@ -583,22 +622,35 @@ std::vector<uint8_t> MultiScaleMap::serialize(const std::string& vocabulary_path
     w.f64(m.radius_m);
     w.u32(m.num_members);
   }
+}
 
-  const uint64_t payload_size = w.bytes.size() - payload_begin;
-  for (int i = 0; i < 8; ++i) w.bytes[12 + static_cast<size_t>(i)] = static_cast<uint8_t>(payload_size >> (8 * i));
-  w.u64(fnv1a64(w.bytes.data(), w.bytes.size()));
-  return std::move(w.bytes);
+void MultiScaleMap::writeFile(MapFileWriter& w, const std::string& vocabulary_path) const {
+  MapFileWriter counter;
+  writePayload(counter, vocabulary_path);
+  w.raw(reinterpret_cast<const uint8_t*>(kMagic), 8);
+  w.u32(kFileVersion);
+  w.u64(counter.size());
+  writePayload(w, vocabulary_path);
+  w.finishWithChecksum();
+}
+
+std::vector<uint8_t> MultiScaleMap::serialize(const std::string& vocabulary_path) const {
+  std::vector<uint8_t> bytes;
+  MapFileWriter w(&bytes);
+  writeFile(w, vocabulary_path);
+  return bytes;
 }
 
 void MultiScaleMap::save(const std::string& path, const std::string& vocabulary_path) const {
-  const std::vector<uint8_t> bytes = serialize(vocabulary_path);
   // Write to a temporary file and rename, so a crash mid-write never leaves a half map under
   // the real name.
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error("cannot write map file '" + tmp + "'");
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    MapFileWriter w(&out);
+    writeFile(w, vocabulary_path);
+    out.flush();
     if (!out) throw std::runtime_error("I/O error writing map file '" + tmp + "'");
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0)

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <sstream>
 
@@ -195,7 +196,7 @@ TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
 
 /// A small map with every kind of content: two sessions, submaps with random ORB-like
 /// descriptors, sequential / link / loop edges, yaw factors and magnetic submaps.
-MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary) {
+MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary, int keypoints_per_keyframe = 40) {
   MultiScaleMap map(vocabulary, PoseGraphOptions(), 0.1);
   std::mt19937_64 rng(7);
   const uint32_t s0 = map.addSession(0, false);
@@ -207,7 +208,7 @@ MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary)
     T.translation() = Eigen::Vector3d(0.5 * i, 0.1 * i, 2.0);
     VisualSubmap v;
     if (i != 5) {  // one keyframe without a visual submap
-      for (int k = 0; k < 40; ++k) {
+      for (int k = 0; k < keypoints_per_keyframe; ++k) {
         BinaryDescriptor d;
         for (uint64_t& w : d.words) w = rng();
         v.descriptors.push_back(d);
@@ -234,6 +235,24 @@ MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary)
   d.num_members = 9;
   map.addMagneticSubmap(d);
   return map;
+}
+
+// save() streams through a 1 MiB buffer with an incremental checksum; a map of several buffers
+// must give exactly the bytes of serialize() and load back.
+TEST(MapFile, StreamedSaveOfALargeMapEqualsSerialize) {
+  const auto vocabulary = loadVocabulary("orb_k8l4.vocab");
+  const MultiScaleMap map = makeMap(vocabulary, 3000);
+  const std::vector<uint8_t> bytes = map.serialize("orb.vocab");
+  ASSERT_GT(bytes.size(), size_t{2} << 20);
+  const std::string path = tempPath("large.vmap");
+  map.save(path, "orb.vocab");
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<uint8_t> saved((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(saved == bytes);
+  MultiScaleMap loaded(vocabulary, PoseGraphOptions(), 0.1);
+  EXPECT_NO_THROW(loaded.load(path));
+  EXPECT_EQ(loaded.numNodes(), map.numNodes());
+  std::remove(path.c_str());
 }
 
 TEST(MapFile, RoundTripIsByteIdentical) {

@@ -76,6 +76,9 @@ struct ComponentSnapshot {
   std::vector<PoseGraphNodeId> ids;
 };
 
+/// Writer of the map file format (multiscale_map.cpp).
+class MapFileWriter;
+
 class MultiScaleMap {
  public:
   /// File format version written by save().
@@ -170,6 +173,9 @@ class MultiScaleMap {
   uint64_t vocabularyChecksum() const { return vocabulary_checksum_; }
 
  private:
+  /// Header, payload and checksum; the payload alone (its size goes into the header).
+  void writeFile(MapFileWriter& w, const std::string& vocabulary_path) const;
+  void writePayload(MapFileWriter& w, const std::string& vocabulary_path) const;
   uint32_t findSession(uint32_t session) const;
   void uniteSessions(uint32_t a, uint32_t b);
   void checkNode(PoseGraphNodeId id, const char* what) const;
