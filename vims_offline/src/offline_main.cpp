@@ -27,8 +27,9 @@ const char* kUsage =
     "  --map-load FILE     relocalise into a map saved by an earlier run (teach and repeat)\n"
     "  --map-save FILE     save the map at the end\n"
     "  --package-root DIR  root for relative vocabulary paths (default: the source tree it was built from)\n"
-    "  --threads 1|2       2 (default): the feature tracker runs on its own thread, overlapping the\n"
-    "                      estimator; 1: one thread. The output files are the same for both\n"
+    "  --threads 1|2       2 (default): the feature tracker and the pose graph run on their own\n"
+    "                      threads, overlapping the estimator; 1: one thread. The output files are\n"
+    "                      the same for both\n"
     "  --quiet             no progress output\n";
 
 int usageError(const std::string& message) {

@@ -224,6 +224,9 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
       config_.pose_graph, sequence_, PoseGraphManager::loadVocabulary(config_.pose_graph, options_.package_root),
       logger_);
   if (!options_.map_load.empty()) pose_graph_->loadMap(options_.map_load);
+  // 100 queued tasks: at most ~25 keyframes (with their images) in flight; signatures and
+  // geomagnetic samples make up the rest.
+  pose_graph_worker_ = std::make_unique<SerialWorker>(options_.threads == 2, 100);
   loops_csv_ = std::make_unique<LoopCsvWriter>((out / "loops.csv").string());
 }
 
@@ -302,11 +305,14 @@ void OfflinePipeline::drainEstimator() {
     vio_tum_->write(r.t_stamp, r.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(r.T_odom_b_at_stamp.linear()));
     ++vio_frames_;
   }
-  for (const KeyframeData& keyframe : estimator_->takeKeyframes()) {
-    timePoseGraph(true, [&] { pose_graph_->feedKeyframe(keyframe); });
+  for (KeyframeData& keyframe : estimator_->takeKeyframes()) {
+    keyframe.image = keyframe.image.clone();  // the task may run after the frame's buffer is reused
+    pose_graph_worker_->submit([this, keyframe = std::move(keyframe)] {
+      timePoseGraph(true, [&] { pose_graph_->feedKeyframe(keyframe); });
+      drainLoopAttempts();
+    });
     ++vio_keyframes_;
   }
-  drainLoopAttempts();
 }
 
 void OfflinePipeline::drainLoopAttempts() {
@@ -330,12 +336,15 @@ void OfflinePipeline::onMag(const MagSample& sample) {
   magnetometer_ms_.push_back(millisecondsSince(start));
   for (const auto& window : signature_windows_) {
     signature_csv_->write(window);
-    timePoseGraph(false, [&] { pose_graph_->feedSignature(window); });
+    pose_graph_worker_->submit([this, window] {
+      timePoseGraph(false, [&] { pose_graph_->feedSignature(window); });
+      drainLoopAttempts();
+    });
   }
   for (const auto& geomagnetic : geomagnetic_samples_) {
-    timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); });
+    pose_graph_worker_->submit(
+        [this, geomagnetic] { timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); }); });
   }
-  if (!signature_windows_.empty()) drainLoopAttempts();
 }
 
 OfflineSummary OfflinePipeline::run() {
@@ -374,8 +383,11 @@ OfflineSummary OfflinePipeline::run() {
   sonar_csv_->flush();
   drainEstimator();
   vio_tum_->flush();
-  timePoseGraph(false, [&] { pose_graph_->finish(); });
-  drainLoopAttempts();
+  pose_graph_worker_->submit([this] {
+    timePoseGraph(false, [&] { pose_graph_->finish(); });
+    drainLoopAttempts();
+  });
+  pose_graph_worker_->wait();
   loops_csv_->flush();
   {
     // global.tum: the final optimised body pose of every keyframe of this run, world frame.

@@ -30,6 +30,8 @@
 #include "vims_common/sequence_paths.h"
 #include "vims_ros/sequence_bag_reader.h"
 
+#include "serial_worker.h"
+
 namespace vims {
 
 struct OfflineOptions {
@@ -173,9 +175,13 @@ class OfflinePipeline {
   long vio_keyframes_ = 0;
   std::vector<SignatureWindow> signature_windows_;
   std::vector<GeomagneticSample> geomagnetic_samples_;
-  // Global pose graph with hierarchical loop closing, run synchronously (deterministic).
+  // Global pose graph with hierarchical loop closing, run synchronously (deterministic) by
+  // pose_graph_worker_: inline, or on its own thread in message-stream order. Only tasks of
+  // that worker touch pose_graph_, loops_csv_ and the pose-graph timing members above until
+  // run() has waited for it.
   std::unique_ptr<PoseGraphManager> pose_graph_;
   std::unique_ptr<LoopCsvWriter> loops_csv_;
+  std::unique_ptr<SerialWorker> pose_graph_worker_;
 };
 
 }  // namespace vims

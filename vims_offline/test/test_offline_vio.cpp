@@ -80,10 +80,11 @@ static std::string fileContents(const fs::path& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// The tracker thread (--threads 2, default) must not change any output: the estimator gets each
-// frame at the same point of the message stream as with --threads 1. Also checks the per-stage
+// The tracker and pose-graph threads (--threads 2, default) must not change any output: the
+// estimator gets each frame at the same point of the message stream as with --threads 1, and the
+// pose graph gets its inputs in the same order. Also checks the per-stage
 // latency and resource keys of summary.yaml.
-TEST(OfflineVio, TrackerThreadGivesIdenticalOutputs) {
+TEST(OfflineVio, WorkerThreadsGiveIdenticalOutputs) {
   const std::string seq = tank30();
   if (seq.empty()) GTEST_SKIP() << "VIMS_TEST_DATA not set (run through ctest)";
   std::array<fs::path, 2> outs;
