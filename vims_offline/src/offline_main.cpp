@@ -16,7 +16,8 @@ namespace {
 
 const char* kUsage =
     "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode MODE] [--map-load FILE]\n"
-    "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--quiet]\n"
+    "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--vio-only]\n"
+    "                    [--quiet]\n"
     "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
     "  --config FILE       system configuration: optional sections sonar, magnetometer, tracker, estimator,\n"
@@ -30,6 +31,8 @@ const char* kUsage =
     "  --threads 1|2       2 (default): the feature tracker and the pose graph run on their own\n"
     "                      threads, overlapping the estimator; 1: one thread. The output files are\n"
     "                      the same for both\n"
+    "  --vio-only          the odometry alone (no pose graph: no global.tum, loops.csv or map), to\n"
+    "                      measure the VIO's own speed\n"
     "  --quiet             no progress output\n";
 
 int usageError(const std::string& message) {
@@ -75,6 +78,8 @@ int main(int argc, char** argv) {
       if (!value(&threads)) return usageError("--threads needs 1 or 2");
       if (threads != "1" && threads != "2") return usageError("--threads must be 1 or 2, got '" + threads + "'");
       options.threads = std::stoi(threads);
+    } else if (arg == "--vio-only") {
+      options.vio_only = true;
     } else if (arg == "--quiet") {
       options.show_progress = false;
     } else {

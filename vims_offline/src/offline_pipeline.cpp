@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstddef>
 #include <cstdio>
+#include <deque>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -75,12 +77,16 @@ double percentile(std::vector<double> values, double q) {
 }  // namespace
 
 /// Runs FeatureTracker::process on the camera frames one at a time, in submission order. With a
-/// thread, submit() returns at once and the tracking overlaps whatever the caller does until
-/// take(); without one, submit() tracks inline. The tracker's state depends on its input images
-/// only, so both give the same TrackedFrames.
+/// thread, submit() returns at once and up to kFramesInFlight frames are tracked while the
+/// caller goes on; take() returns the oldest. Without one, submit() tracks inline. The tracker's
+/// state depends on its input images only, so both give the same TrackedFrames.
 class OfflinePipeline::TrackerWorker {
  public:
   using Result = TrackedResult;
+  /// Frames submitted and not yet taken before onImage() hands the oldest to the estimator.
+  /// Several rather than one let the tracker run ahead through the estimator's slow frames
+  /// (marginalisation at keyframes) instead of waiting for it at every frame.
+  static constexpr std::size_t kFramesInFlight = 3;
 
   TrackerWorker(FeatureTracker* tracker, bool threaded) : tracker_(tracker) {
     if (threaded) thread_ = std::thread([this] { loop(); });
@@ -97,65 +103,68 @@ class OfflinePipeline::TrackerWorker {
   TrackerWorker(const TrackerWorker&) = delete;
   TrackerWorker& operator=(const TrackerWorker&) = delete;
 
-  /// A frame was submitted and not yet taken.
-  bool pending() const { return pending_; }
+  /// Frames submitted and not yet taken.
+  std::size_t pending() const { return pending_; }
 
-  /// Starts tracking `frame`; the previous result must have been taken.
+  /// Queues `frame` for tracking (tracks it at once without a thread).
   void submit(const CameraFrame& frame) {
-    pending_ = true;
+    ++pending_;
+    Result job;
+    job.frame = frame;
     if (!thread_.joinable()) {
-      result_.frame = frame;
-      track();
+      track(&job);
+      done_.push_back(std::move(job));
       return;
     }
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      result_.frame = frame;
-      job_ = true;
-      done_ = false;
+      todo_.push_back(std::move(job));
     }
     wake_.notify_all();
   }
 
-  /// Waits for the submitted frame and returns it with its tracking result (rethrows what the
-  /// tracker threw).
+  /// Waits for the oldest submitted frame and returns it with its tracking result (rethrows what
+  /// the tracker threw on it).
   Result take() {
-    pending_ = false;
-    if (thread_.joinable()) {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return done_; });
-      job_ = false;
+    --pending_;
+    Result result;
+    {
+      std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+      if (thread_.joinable()) {
+        lock.lock();
+        wake_.wait(lock, [this] { return !done_.empty(); });
+      }
+      result = std::move(done_.front());
+      done_.pop_front();
     }
-    if (error_) {
-      std::exception_ptr error = error_;
-      error_ = nullptr;
-      std::rethrow_exception(error);
-    }
-    return std::move(result_);
+    if (result.error) std::rethrow_exception(result.error);
+    return result;
   }
 
  private:
-  void track() {
+  void track(Result* job) {
     try {
       const Clock::time_point start = Clock::now();
       const double cpu_start = threadCpuSeconds();
-      result_.tracked = tracker_->process(result_.frame);
-      result_.ms = millisecondsSince(start);
-      result_.cpu_s = threadCpuSeconds() - cpu_start;
+      job->tracked = tracker_->process(job->frame);
+      job->ms = millisecondsSince(start);
+      job->cpu_s = threadCpuSeconds() - cpu_start;
     } catch (...) {
-      error_ = std::current_exception();
+      job->error = std::current_exception();
     }
   }
 
   void loop() {
     std::unique_lock<std::mutex> lock(mutex_);
     while (true) {
-      wake_.wait(lock, [this] { return stop_ || (job_ && !done_); });
+      wake_.wait(lock, [this] { return stop_ || !todo_.empty(); });
       if (stop_) return;
+      Result job = std::move(todo_.front());
+      todo_.pop_front();
       lock.unlock();
-      track();  // result_ is not touched by the caller until done_ is set
+      track(&job);  // the tracker is used by this thread only
       lock.lock();
-      done_ = true;
+      done_.push_back(std::move(job));
       wake_.notify_all();
     }
   }
@@ -164,12 +173,10 @@ class OfflinePipeline::TrackerWorker {
   std::thread thread_;
   std::mutex mutex_;
   std::condition_variable wake_;
-  bool pending_ = false;  ///< caller side only
-  bool job_ = false;
-  bool done_ = false;
+  std::size_t pending_ = 0;  ///< caller side only
+  std::deque<Result> todo_;  ///< submitted, not yet tracked
+  std::deque<Result> done_;  ///< tracked, in submission order, not yet taken
   bool stop_ = false;
-  Result result_;
-  std::exception_ptr error_;
 };
 
 SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
@@ -220,6 +227,11 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   tracker_worker_ = std::make_unique<TrackerWorker>(tracker_.get(), options_.threads == 2);
   estimator_ = std::make_unique<VioEstimator>(sequence_, config_.estimator, logger_);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
+  if (options_.vio_only) {
+    if (!options_.map_load.empty() || !options_.map_save.empty())
+      throw std::runtime_error("--vio-only runs no pose graph: it takes no map to load or save");
+    return;
+  }
   pose_graph_ = std::make_unique<PoseGraphManager>(
       config_.pose_graph, sequence_, PoseGraphManager::loadVocabulary(config_.pose_graph, options_.package_root),
       logger_);
@@ -274,13 +286,14 @@ void OfflinePipeline::onImu(const ImuSample& sample) {
 }
 
 void OfflinePipeline::onImage(const CameraFrame& frame) {
-  // Frame k reaches the estimator when frame k+1 arrives (or at the end of the bag), after every
-  // message recorded between the two: a fixed point of the message stream, so the outputs do not
-  // depend on how long the tracker takes, while frame k+1 is tracked during frame k's back end.
-  std::optional<TrackerWorker::Result> previous;
-  if (tracker_worker_->pending()) previous = tracker_worker_->take();
+  // Frame k reaches the estimator when frame k+N arrives (N = kFramesInFlight; or at the end of
+  // the bag), after every message recorded before that: a fixed point of the message stream, so
+  // the outputs do not depend on how long the tracker takes, while frames k+1..k+N are tracked
+  // during frame k's back end.
+  std::optional<TrackerWorker::Result> oldest;
+  if (tracker_worker_->pending() >= TrackerWorker::kFramesInFlight) oldest = tracker_worker_->take();
   tracker_worker_->submit(frame);
-  if (previous) feedTracked(*previous);
+  if (oldest) feedTracked(*oldest);
 }
 
 void OfflinePipeline::feedTracked(const TrackedResult& tracked) {
@@ -292,8 +305,8 @@ void OfflinePipeline::feedTracked(const TrackedResult& tracked) {
   drainEstimator();
 }
 
-void OfflinePipeline::feedTrackedFrame() {
-  if (tracker_worker_->pending()) feedTracked(tracker_worker_->take());
+void OfflinePipeline::feedTrackedFrames() {
+  while (tracker_worker_->pending() > 0) feedTracked(tracker_worker_->take());
 }
 
 void OfflinePipeline::drainEstimator() {
@@ -306,12 +319,13 @@ void OfflinePipeline::drainEstimator() {
     ++vio_frames_;
   }
   for (KeyframeData& keyframe : estimator_->takeKeyframes()) {
+    ++vio_keyframes_;
+    if (!pose_graph_) continue;
     keyframe.image = keyframe.image.clone();  // the task may run after the frame's buffer is reused
     pose_graph_worker_->submit([this, keyframe = std::move(keyframe)] {
       timePoseGraph(true, [&] { pose_graph_->feedKeyframe(keyframe); });
       drainLoopAttempts();
     });
-    ++vio_keyframes_;
   }
 }
 
@@ -336,15 +350,39 @@ void OfflinePipeline::onMag(const MagSample& sample) {
   magnetometer_ms_.push_back(millisecondsSince(start));
   for (const auto& window : signature_windows_) {
     signature_csv_->write(window);
+    if (!pose_graph_) continue;
     pose_graph_worker_->submit([this, window] {
       timePoseGraph(false, [&] { pose_graph_->feedSignature(window); });
       drainLoopAttempts();
     });
   }
   for (const auto& geomagnetic : geomagnetic_samples_) {
+    if (!pose_graph_) break;
     pose_graph_worker_->submit(
         [this, geomagnetic] { timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); }); });
   }
+}
+
+void OfflinePipeline::finishPoseGraph(OfflineSummary* summary) {
+  pose_graph_worker_->submit([this] {
+    timePoseGraph(false, [&] { pose_graph_->finish(); });
+    drainLoopAttempts();
+  });
+  pose_graph_worker_->wait();
+  loops_csv_->flush();
+  {
+    // global.tum: the final optimised body pose of every keyframe of this run, world frame.
+    TumWriter global_tum((fs::path(options_.out_dir) / "global.tum").string());
+    for (const KeyframePose& pose : pose_graph_->keyframePoses()) {
+      global_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
+    }
+    global_tum.flush();
+  }
+  if (!options_.map_save.empty()) pose_graph_->saveMap(options_.map_save);
+  summary->pose_graph = pose_graph_->stats();
+  const std::vector<double> loop_correction_ms = pose_graph_->timings(pose_graph_solves_seen_).loop_correction_ms;
+  summary->loop_correction_ms_p50 = percentile(loop_correction_ms, 0.5);
+  summary->loop_correction_ms_p99 = percentile(loop_correction_ms, 0.99);
 }
 
 OfflineSummary OfflinePipeline::run() {
@@ -376,29 +414,14 @@ OfflineSummary OfflinePipeline::run() {
   OfflineSummary summary;
   summary.sequence_name = paths_.name;
   summary.topics = reader.run(handlers);
-  feedTrackedFrame();  // the last frame
+  feedTrackedFrames();  // the last frames
   sonar_results_.clear();
   sonar_filter_->flush(&sonar_results_);
   for (const auto& result : sonar_results_) sonar_csv_->write(result);
   sonar_csv_->flush();
   drainEstimator();
   vio_tum_->flush();
-  pose_graph_worker_->submit([this] {
-    timePoseGraph(false, [&] { pose_graph_->finish(); });
-    drainLoopAttempts();
-  });
-  pose_graph_worker_->wait();
-  loops_csv_->flush();
-  {
-    // global.tum: the final optimised body pose of every keyframe of this run, world frame.
-    TumWriter global_tum((fs::path(options_.out_dir) / "global.tum").string());
-    for (const KeyframePose& pose : pose_graph_->keyframePoses()) {
-      global_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
-    }
-    global_tum.flush();
-  }
-  if (!options_.map_save.empty()) pose_graph_->saveMap(options_.map_save);
-  summary.pose_graph = pose_graph_->stats();
+  if (pose_graph_) finishPoseGraph(&summary);
   summary.frontend_ms_p50 = percentile(frontend_ms_, 0.5);
   summary.frontend_ms_p99 = percentile(frontend_ms_, 0.99);
   summary.backend_ms_p50 = percentile(backend_ms_, 0.5);
@@ -410,9 +433,6 @@ OfflineSummary OfflinePipeline::run() {
   summary.pose_graph_optimisation_ms_p50 = percentile(pose_graph_optimisation_ms_, 0.5);
   summary.pose_graph_optimisation_ms_p99 = percentile(pose_graph_optimisation_ms_, 0.99);
   summary.pose_graph_optimisation_calls = static_cast<long>(pose_graph_optimisation_ms_.size());
-  const std::vector<double> loop_correction_ms = pose_graph_->timings(pose_graph_solves_seen_).loop_correction_ms;
-  summary.loop_correction_ms_p50 = percentile(loop_correction_ms, 0.5);
-  summary.loop_correction_ms_p99 = percentile(loop_correction_ms, 0.99);
   summary.frontend_total_s = sumSeconds(frontend_ms_);
   summary.backend_total_s = sumSeconds(backend_ms_);
   summary.magnetometer_total_s = sumSeconds(magnetometer_ms_);
@@ -463,7 +483,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "magnetometer: {samples: " << s.magnetometer.mag_samples << ", windows: " << s.magnetometer.windows
       << ", valid_windows: " << s.magnetometer.valid_windows << ", resets: " << s.magnetometer.resets
       << ", nonfinite: " << s.magnetometer.nonfinite << ", duplicates: " << s.magnetometer.duplicates << "}\n";
-  out << "mode: " << options_.mode << "\n";
+  out << "mode: " << options_.mode << (options_.vio_only ? "\nvio_only: true" : "") << "\n";
   out << "vio: {frames: " << s.vio_frames << ", keyframes: " << s.vio_keyframes << ", resets: " << s.vio_resets
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
   const PoseGraphManagerStats& pg = s.pose_graph;

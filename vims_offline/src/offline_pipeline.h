@@ -7,6 +7,7 @@
 /// same way the launch files wire the nodes. It runs as fast as the CPU allows and, being
 /// single-threaded and driven only by bag data, is deterministic: two runs give identical files.
 
+#include <exception>
 #include <map>
 #include <memory>
 #include <string>
@@ -53,6 +54,9 @@ struct OfflineOptions {
   /// Both feed the estimator at the same points of the message stream, so every output file is
   /// identical for either value.
   int threads = 2;
+  /// The odometry alone (sensor front-ends, tracker, estimator): no pose graph, so no
+  /// global.tum, loops.csv or map; for measuring the VIO's own speed (bench/vio_seeds.sh).
+  bool vio_only = false;
 
   /// The modes --mode accepts.
   static const std::vector<std::string>& modes();
@@ -135,10 +139,13 @@ class OfflinePipeline {
     TrackedFrame tracked;
     double ms = 0.0;     ///< wall time of FeatureTracker::process
     double cpu_s = 0.0;  ///< its CPU time
+    std::exception_ptr error;  ///< what the tracker threw on this frame
   };
   void feedTracked(const TrackedResult& tracked);
-  /// Feeds the tracked frame waiting in the tracker (if any) to the estimator.
-  void feedTrackedFrame();
+  /// Feeds the frames still in the tracker to the estimator (end of data).
+  void feedTrackedFrames();
+  /// End of data for the pose graph: final solve, loops.csv, global.tum, the map; its figures.
+  void finishPoseGraph(OfflineSummary* summary);
   /// Runs a pose-graph call and files its duration under place recognition / optimisation.
   template <typename Call>
   void timePoseGraph(bool is_keyframe, Call&& call);

@@ -113,6 +113,33 @@ TEST(OfflineVio, WorkerThreadsGiveIdenticalOutputs) {
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
 }
 
+// --vio-only runs the same odometry without the pose graph: nothing the pose graph does flows
+// back into the estimator, so vio.tum must be byte-identical to a full run's.
+TEST(OfflineVio, VioOnlyGivesTheFullRunsOdometry) {
+  const std::string seq = tank30();
+  if (seq.empty()) GTEST_SKIP() << "VIMS_TEST_DATA not set (run through ctest)";
+  const fs::path full = freshDir("offline_vio_full");
+  const fs::path vio = freshDir("offline_vio_only");
+  CommandResult r = runCommand(offlineBinary() + " --quiet --sequence " + seq + " --out " + full.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = runCommand(offlineBinary() + " --quiet --vio-only --sequence " + seq + " --out " + vio.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string full_vio = fileContents(full / "vio.tum");
+  EXPECT_FALSE(full_vio.empty());
+  EXPECT_TRUE(full_vio == fileContents(vio / "vio.tum")) << "vio.tum differs with --vio-only";
+  EXPECT_FALSE(fs::exists(vio / "global.tum"));
+  EXPECT_FALSE(fs::exists(vio / "loops.csv"));
+  const YAML::Node summary = YAML::LoadFile((vio / "summary.yaml").string());
+  EXPECT_TRUE(summary["vio_only"].as<bool>());
+  EXPECT_EQ(summary["pose_graph"]["keyframes"].as<int>(), 0);
+  EXPECT_GT(summary["vio"]["keyframes"].as<int>(), 0);
+  const CommandResult with_map = runCommand(offlineBinary() + " --quiet --vio-only --map-save " +
+                                            (vio / "m.vimsmap").string() + " --sequence " + seq + " --out " +
+                                            freshDir("offline_vio_only_map").string());
+  EXPECT_EQ(with_map.exit_code, 1) << with_map.output;
+  EXPECT_NE(with_map.output.find("--vio-only"), std::string::npos) << with_map.output;
+}
+
 TEST(OfflineVio, UnknownModeIsAUsageError) {
   const CommandResult r = runCommand(offlineBinary() + " --mode fast --sequence x --out " +
                                      freshDir("offline_vio_badmode").string());
