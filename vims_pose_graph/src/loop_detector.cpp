@@ -4,6 +4,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -39,17 +40,52 @@ inline int pointDistance(const DescribedPoints& points, const std::vector<uint32
   return best;
 }
 
+/// One point's descriptors regrouped per keypoint octave: the ones pointDistance() compares with
+/// a keypoint of octave o, contiguous (ORB pyramids have 8 levels; octaves outside
+/// [0, kOctaves) take the general path). Built once per point instead of filtering the point's
+/// descriptors by level for each of the ~3000 keypoints of a candidate.
+class DescriptorsByOctave {
+ public:
+  static constexpr int kOctaves = 16;
+
+  DescriptorsByOctave(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
+                      int max_level_difference) {
+    for (int o = 0; o < kOctaves; ++o) {
+      begin_[static_cast<size_t>(o)] = flat_.size();
+      for (uint32_t d : descriptor_ids)
+        if (max_level_difference < 0 || std::abs(points.level_of_descriptor[d] - o) <= max_level_difference)
+          flat_.push_back(points.descriptors[d]);
+    }
+    begin_[kOctaves] = flat_.size();
+  }
+  bool covers(int octave) const { return octave >= 0 && octave < kOctaves; }
+  const BinaryDescriptor* begin(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave)]; }
+  const BinaryDescriptor* end(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave) + 1]; }
+
+ private:
+  std::vector<BinaryDescriptor> flat_;
+  std::array<size_t, kOctaves + 1> begin_{};
+};
+
 /// pointDistance() of one point to every keypoint of `candidate` into `distance`; returns the
 /// index of the first smallest. The loop detector's hot loop, hence the popcount dispatch.
 VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points,
                                                    const std::vector<uint32_t>& descriptor_ids,
+                                                   const DescriptorsByOctave& by_octave,
                                                    const VisualSubmap& candidate, int max_level_difference,
                                                    std::vector<int>* distance) {
   size_t best = 0;
   for (size_t k = 0; k < candidate.keypoints.size(); ++k) {
-    (*distance)[k] = pointDistance(points, descriptor_ids, candidate.descriptors[k], candidate.keypoints[k].octave,
-                                   max_level_difference);
-    if ((*distance)[k] < (*distance)[best]) best = k;
+    const int octave = candidate.keypoints[k].octave;
+    int d = 257;
+    if (by_octave.covers(octave)) {
+      for (const BinaryDescriptor* it = by_octave.begin(octave); it != by_octave.end(octave); ++it)
+        d = std::min(d, hammingDistance(*it, candidate.descriptors[k]));
+    } else {
+      d = pointDistance(points, descriptor_ids, candidate.descriptors[k], octave, max_level_difference);
+    }
+    (*distance)[k] = d;
+    if (d < (*distance)[best]) best = k;
   }
   return best;
 }
@@ -112,7 +148,8 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
   std::vector<int> distance(num_keypoints);
   for (uint32_t p = 0; p < by_point.size(); ++p) {
     if (by_point[p].empty()) continue;
-    const size_t best = distancesToKeypoints(points, by_point[p], candidate, max_level_difference, &distance);
+    const DescriptorsByOctave by_octave(points, by_point[p], max_level_difference);
+    const size_t best = distancesToKeypoints(points, by_point[p], by_octave, candidate, max_level_difference, &distance);
     if (distance[best] > max_distance) continue;
     if (ratio < 1.0) {
       // Second best among keypoints at another place: the same corner detected on another
