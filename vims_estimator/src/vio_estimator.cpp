@@ -826,7 +826,7 @@ struct SeabedTies {
   Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
   double sonar_sigma = 0.05;
   const SonarDepthOptions* options = nullptr;
-  const std::optional<SeabedFix>* carried = nullptr;
+  const SeabedFix* carried = nullptr;  ///< the last measured seabed, null before the first range
 };
 
 /// Reprojection and sonar residual blocks of one feature at the current estimate.
@@ -872,8 +872,8 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
     }
     return;
   }
-  if (!options.carry_seabed_through_outages || !*seabed.carried) return;
-  const SeabedFix& fix = **seabed.carried;
+  if (!options.carry_seabed_through_outages || !seabed.carried) return;
+  const SeabedFix& fix = *seabed.carried;
   const double distance = (T_l_bi.translation().head<2>() - fix.xy).norm();
   if (!(distance <= options.carry_max_distance_m)) return;
   const double sigma = options.carriedSigma(seabed.sonar_sigma, distance);
@@ -950,7 +950,7 @@ void VioEstimator::optimize(VioFrameResult* result) {
       sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
   const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                          &seabed_fix_};
+                          seabed_fix_ ? &*seabed_fix_ : nullptr};
   std::vector<ResidualSpec> specs;
   for (auto& [id, feature] : features_) {
     specs.clear();
@@ -1221,7 +1221,7 @@ void VioEstimator::marginalizeOldest() {
     auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
     auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
     const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                            &seabed_fix_};
+                            seabed_fix_ ? &*seabed_fix_ : nullptr};
     std::vector<ResidualSpec> specs;
     for (auto& [id, feature] : features_) {
       if (feature.anchor != old) continue;
