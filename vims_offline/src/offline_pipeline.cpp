@@ -15,7 +15,6 @@
 #include <numeric>
 #include <optional>
 #include <sys/resource.h>
-#include <thread>
 #include <unistd.h>
 
 #include "vims_common/config_reader.h"
@@ -76,10 +75,11 @@ double percentile(std::vector<double> values, double q) {
 
 }  // namespace
 
-/// Runs FeatureTracker::process on the camera frames one at a time, in submission order. With a
-/// thread, submit() returns at once and up to kFramesInFlight frames are tracked while the
-/// caller goes on; take() returns the oldest. Without one, submit() tracks inline. The tracker's
-/// state depends on its input images only, so both give the same TrackedFrames.
+/// Runs FeatureTracker::process on the camera frames one at a time, in submission order, on a
+/// SerialWorker: with a thread, submit() returns at once and up to kFramesInFlight frames are
+/// tracked while the caller goes on; take() returns the oldest. Without one, submit() tracks
+/// inline. The tracker's state depends on its input images only, so both give the same
+/// TrackedFrames.
 class OfflinePipeline::TrackerWorker {
  public:
   using Result = TrackedResult;
@@ -88,20 +88,7 @@ class OfflinePipeline::TrackerWorker {
   /// (marginalisation at keyframes) instead of waiting for it at every frame.
   static constexpr std::size_t kFramesInFlight = 3;
 
-  TrackerWorker(FeatureTracker* tracker, bool threaded) : tracker_(tracker) {
-    if (threaded) thread_ = std::thread([this] { loop(); });
-  }
-  ~TrackerWorker() {
-    if (!thread_.joinable()) return;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();
-  }
-  TrackerWorker(const TrackerWorker&) = delete;
-  TrackerWorker& operator=(const TrackerWorker&) = delete;
+  TrackerWorker(FeatureTracker* tracker, bool threaded) : tracker_(tracker), worker_(threaded, kFramesInFlight) {}
 
   /// Frames submitted and not yet taken.
   std::size_t pending() const { return pending_; }
@@ -109,18 +96,24 @@ class OfflinePipeline::TrackerWorker {
   /// Queues `frame` for tracking (tracks it at once without a thread).
   void submit(const CameraFrame& frame) {
     ++pending_;
-    Result job;
-    job.frame = frame;
-    if (!thread_.joinable()) {
-      track(&job);
-      done_.push_back(std::move(job));
-      return;
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      todo_.push_back(std::move(job));
-    }
-    wake_.notify_all();
+    worker_.submit([this, frame] {
+      Result job;
+      job.frame = frame;
+      try {
+        const Clock::time_point start = Clock::now();
+        const double cpu_start = threadCpuSeconds();
+        job.tracked = tracker_->process(job.frame);  // the tracker is used by the worker only
+        job.ms = millisecondsSince(start);
+        job.cpu_s = threadCpuSeconds() - cpu_start;
+      } catch (...) {
+        job.error = std::current_exception();
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        done_.push_back(std::move(job));
+      }
+      ready_.notify_all();
+    });
   }
 
   /// Waits for the oldest submitted frame and returns it with its tracking result (rethrows what
@@ -129,11 +122,8 @@ class OfflinePipeline::TrackerWorker {
     --pending_;
     Result result;
     {
-      std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
-      if (thread_.joinable()) {
-        lock.lock();
-        wake_.wait(lock, [this] { return !done_.empty(); });
-      }
+      std::unique_lock<std::mutex> lock(mutex_);
+      ready_.wait(lock, [this] { return !done_.empty(); });
       result = std::move(done_.front());
       done_.pop_front();
     }
@@ -142,41 +132,12 @@ class OfflinePipeline::TrackerWorker {
   }
 
  private:
-  void track(Result* job) {
-    try {
-      const Clock::time_point start = Clock::now();
-      const double cpu_start = threadCpuSeconds();
-      job->tracked = tracker_->process(job->frame);
-      job->ms = millisecondsSince(start);
-      job->cpu_s = threadCpuSeconds() - cpu_start;
-    } catch (...) {
-      job->error = std::current_exception();
-    }
-  }
-
-  void loop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (true) {
-      wake_.wait(lock, [this] { return stop_ || !todo_.empty(); });
-      if (stop_) return;
-      Result job = std::move(todo_.front());
-      todo_.pop_front();
-      lock.unlock();
-      track(&job);  // the tracker is used by this thread only
-      lock.lock();
-      done_.push_back(std::move(job));
-      wake_.notify_all();
-    }
-  }
-
   FeatureTracker* tracker_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
   std::size_t pending_ = 0;  ///< caller side only
-  std::deque<Result> todo_;  ///< submitted, not yet tracked
+  std::mutex mutex_;
+  std::condition_variable ready_;
   std::deque<Result> done_;  ///< tracked, in submission order, not yet taken
-  bool stop_ = false;
+  SerialWorker worker_;      ///< last: its thread stops before the members above go
 };
 
 SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
