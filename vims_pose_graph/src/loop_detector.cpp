@@ -90,6 +90,23 @@ VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points
   return best;
 }
 
+/// RANSAC iterations that suffice to reject a candidate: had `min_inliers` of the `num_matches`
+/// been inliers, a 4-point sample would have been all-inlier at least once in k iterations with
+/// probability `confidence` (k = log(1 - confidence) / log(1 - w^4), w = min_inliers /
+/// num_matches), taken three times because a clean sample of noisy points does not always give a
+/// model whose consensus reaches the whole inlier set. Once an acceptable consensus is found,
+/// OpenCV's adaptive stop ends the search within k iterations anyway; the cap only shortens the
+/// search for consensus sets that are not there (2/3 of all verifications end at PnP, and each
+/// ran all pnp_iterations).
+int ransacIterationsToReject(size_t num_matches, int min_inliers, double confidence) {
+  if (num_matches == 0) return 1;
+  const double w = std::min(1.0, static_cast<double>(min_inliers) / static_cast<double>(num_matches));
+  const double clean = std::pow(w, 4);
+  if (clean >= 1.0) return 1;
+  const double k = std::log(1.0 - confidence) / std::log(1.0 - clean);
+  return static_cast<int>(std::min(1e9, std::ceil(3.0 * k)));
+}
+
 /// Whether any keypoint of `submap` within sqrt(radius2) px of `uv` is within max_distance of
 /// the point (the covisibility check's inner loop).
 VIMS_POPCOUNT_DISPATCH bool hasMatchingKeypointNear(const DescribedPoints& points,
@@ -228,7 +245,9 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     // AP3P hypotheses from 4-point samples (a clean sample is far likelier than EPnP's 5 at the
     // 30-50 % inlier rates of a seabed revisit), EPnP on all inliers of the best one; OpenCV's
     // RANSAC uses a fixed seed, so the result is deterministic.
-    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, options_.pnp_iterations,
+    const int iterations = std::min(options_.pnp_iterations, ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
+                                                                                       options_.pnp_confidence));
+    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, iterations,
                             static_cast<float>(threshold), options_.pnp_confidence, ransac_inliers, cv::SOLVEPNP_AP3P);
   } catch (const cv::Exception&) {
     ok = false;  // degenerate configurations (all points collinear, ...) are a rejection, not a crash
