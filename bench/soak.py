@@ -10,7 +10,7 @@ sequence] and whether memory stops growing: the last quarter grows by less than
 --plateau-pct percent (default 5) of the RSS at its start.
 
     bench/soak.py --work /work/data/faults/soak [--duration 3600] [--seed 1] [--reuse DIR]
-                  [--interval 10] [--build _build] [--keep-sequence]
+                  [--interval 10] [--build _build] [--keep-sequence] [--config FILE]
 
 Documented in docs/benchmarks_growth.md.
 """
@@ -62,6 +62,7 @@ def main():
     ap.add_argument("--plateau-pct", type=float, default=5.0)
     ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
     ap.add_argument("--keep-sequence", action="store_true")
+    ap.add_argument("--config", help="passed to vims_offline --config (e.g. pose-graph options to compare)")
     args = ap.parse_args()
 
     bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
@@ -91,8 +92,10 @@ def main():
     start = time.monotonic()
     samples = []
     with open(os.path.join(work, "offline.log"), "w") as log:
-        proc = subprocess.Popen([os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out],
-                                stdout=log, stderr=subprocess.STDOUT)
+        cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out]
+        if args.config:
+            cmd += ["--config", os.path.abspath(args.config)]
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
         while proc.poll() is None:
             status = read_status_mb(proc.pid)
             rchar = read_rchar(proc.pid)

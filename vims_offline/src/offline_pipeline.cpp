@@ -449,6 +449,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
+      << ", culled_submaps: " << pg.culled_submaps
       << ", sessions: " << pg.sessions << ", loop_queries: " << pg.loop_queries
       << ", loop_attempts: " << pg.loop_attempts << ", loops_accepted: " << pg.loops_accepted
       << ", yaw_factors: " << pg.yaw_factors << ", magnetic_submaps: " << pg.magnetic_submaps

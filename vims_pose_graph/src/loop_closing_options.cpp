@@ -138,7 +138,8 @@ std::string MagneticSubmapOptions::toYaml() const {
 // ---------------------------------------------------------------------------------------------
 
 LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"exclude_recent_keyframes", "exclude_recent_s", "query_signature_max_dt_s",
+  reader.rejectUnknownKeys({"exclude_recent_keyframes", "exclude_recent_s", "redundant_submap_radius_m",
+                            "redundant_submap_max_height_difference_m", "query_signature_max_dt_s",
                             "mag_distance_relative", "mag_distance_floor_tesla", "mag_max_candidates",
                             "bow_min_score", "bow_max_candidates", "bow_max_candidates_all", "harris_threshold",
                             "submap_include_tracked_corners", "submap_dense_corners", "query_local_map_keyframes",
@@ -153,6 +154,12 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireInRange(reader, "exclude_recent_keyframes", o.exclude_recent_keyframes, 0, 1000000);
   o.exclude_recent_s = reader.get<double>("exclude_recent_s", o.exclude_recent_s);
   requireNonNegative(reader, "exclude_recent_s", o.exclude_recent_s);
+  o.redundant_submap_radius_m = reader.get<double>("redundant_submap_radius_m", o.redundant_submap_radius_m);
+  requireInRange(reader, "redundant_submap_radius_m", o.redundant_submap_radius_m, 0.0, 100.0);
+  o.redundant_submap_max_height_difference_m =
+      reader.get<double>("redundant_submap_max_height_difference_m", o.redundant_submap_max_height_difference_m);
+  requireInRange(reader, "redundant_submap_max_height_difference_m", o.redundant_submap_max_height_difference_m, 0.0,
+                 100.0);
   o.query_signature_max_dt_s = reader.get<double>("query_signature_max_dt_s", o.query_signature_max_dt_s);
   requireInRange(reader, "query_signature_max_dt_s", o.query_signature_max_dt_s, 0.0, 60.0);
   o.mag_distance_relative = reader.get<double>("mag_distance_relative", o.mag_distance_relative);
@@ -215,6 +222,9 @@ void LoopDetectorOptions::validate() const {
   const char* w = "LoopDetectorOptions";
   check(exclude_recent_keyframes >= 0, w, "exclude_recent_keyframes");
   check(exclude_recent_s >= 0.0, w, "exclude_recent_s");
+  check(redundant_submap_radius_m >= 0.0 && redundant_submap_radius_m <= 100.0, w, "redundant_submap_radius_m");
+  check(redundant_submap_max_height_difference_m >= 0.0 && redundant_submap_max_height_difference_m <= 100.0, w,
+        "redundant_submap_max_height_difference_m");
   check(query_signature_max_dt_s >= 0.0, w, "query_signature_max_dt_s");
   check(mag_distance_relative >= 0.0, w, "mag_distance_relative");
   check(mag_distance_floor_tesla >= 0.0, w, "mag_distance_floor_tesla");
@@ -247,6 +257,8 @@ std::string LoopDetectorOptions::toYaml() const {
   os.precision(10);
   os << "exclude_recent_keyframes: " << exclude_recent_keyframes << "\n"
      << "exclude_recent_s: " << exclude_recent_s << "\n"
+     << "redundant_submap_radius_m: " << redundant_submap_radius_m << "\n"
+     << "redundant_submap_max_height_difference_m: " << redundant_submap_max_height_difference_m << "\n"
      << "query_signature_max_dt_s: " << query_signature_max_dt_s << "\n"
      << "mag_distance_relative: " << mag_distance_relative << "\n"
      << "mag_distance_floor_tesla: " << mag_distance_floor_tesla << "\n"

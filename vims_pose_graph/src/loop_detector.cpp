@@ -317,13 +317,26 @@ int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMa
   const MapNode& m = map.node(match);
   const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(query.points);
   const double r2 = options_.covisibility_search_radius_px * options_.covisibility_search_radius_px;
+  // The match's neighbours: up to covisibility_neighbours keyframes of its session with a visual
+  // submap on either side. Keyframes without one (empty image, or a redundant submap culled on
+  // a re-flight, see LoopDetectorOptions::redundant_submap_radius_m) are stepped over, looking
+  // at most 2 x covisibility_neighbours keyframes away so the VIO relative pose stays local.
+  std::vector<PoseGraphNodeId> neighbours;
+  for (const int step : {-1, 1}) {
+    int found = 0;
+    for (int k = 1; k <= 2 * options_.covisibility_neighbours && found < options_.covisibility_neighbours; ++k) {
+      const int64_t id = static_cast<int64_t>(match) + step * k;
+      if (id < 0 || id >= static_cast<int64_t>(map.numNodes())) break;
+      const MapNode& n = map.node(static_cast<PoseGraphNodeId>(id));
+      if (n.session != m.session) break;
+      if (n.visual.empty()) continue;
+      neighbours.push_back(static_cast<PoseGraphNodeId>(id));
+      ++found;
+    }
+  }
   int confirming = 0;
-  for (int offset = -options_.covisibility_neighbours; offset <= options_.covisibility_neighbours; ++offset) {
-    if (offset == 0) continue;
-    const int64_t id = static_cast<int64_t>(match) + offset;
-    if (id < 0 || id >= static_cast<int64_t>(map.numNodes())) continue;
-    const MapNode& n = map.node(static_cast<PoseGraphNodeId>(id));
-    if (n.session != m.session || n.visual.empty()) continue;
+  for (const PoseGraphNodeId neighbour : neighbours) {
+    const MapNode& n = map.node(neighbour);
     // The neighbour's pose relative to the match from the VIO (locally accurate), chained with
     // the PnP pose: where the neighbour camera must see each inlier if the loop is right.
     const Eigen::Isometry3d T_cn_odomq = T_c_b_ * n.pose.T_odom_b.inverse() * m.pose.T_odom_b * T_bm_odomq;
@@ -362,15 +375,19 @@ HierarchicalLoopDetector::HierarchicalLoopDetector(const LoopDetectorOptions& op
   magnetic_options_.validate();
 }
 
-bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeId query,
-                                        PoseGraphNodeId candidate) const {
+bool isRecentKeyframe(const LoopDetectorOptions& options, const MultiScaleMap& map, PoseGraphNodeId query,
+                      double t_query, PoseGraphNodeId candidate) {
   const MapNode& c = map.node(candidate);
   if (map.sessions().at(c.session).loaded) return false;  // another run: never "recent"
-  const MapNode& q = map.node(query);
-  if (query >= candidate && query - candidate < static_cast<PoseGraphNodeId>(options_.exclude_recent_keyframes))
+  if (query >= candidate && query - candidate < static_cast<PoseGraphNodeId>(options.exclude_recent_keyframes))
     return true;
   if (candidate > query) return true;  // not older than the query
-  return q.pose.t - c.pose.t < options_.exclude_recent_s;
+  return t_query - c.pose.t < options.exclude_recent_s;
+}
+
+bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeId query,
+                                        PoseGraphNodeId candidate) const {
+  return isRecentKeyframe(options_, map, query, map.node(query).pose.t, candidate);
 }
 
 DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const MultiScaleMap& map) const {

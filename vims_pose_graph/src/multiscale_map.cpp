@@ -90,6 +90,13 @@ PoseGraphNodeId MultiScaleMap::addNode(double t, uint32_t session, const Eigen::
     n.bow_image = bow_->add(visual.bow);
     image_to_node_.push_back(id);
   }
+  // The describer appends keypoints in several passes (ORB, tracked, dense corners), which
+  // leaves up to as much spare capacity again in each vector; the map keeps a submap for the
+  // whole run, so it keeps exactly its contents.
+  visual.keypoints.shrink_to_fit();
+  visual.descriptors.shrink_to_fit();
+  visual.normalized.shrink_to_fit();
+  visual.bow.entries.shrink_to_fit();
   n.visual = std::move(visual);
   nodes_.push_back(std::move(n));
   MapSession& s = sessions_[session];

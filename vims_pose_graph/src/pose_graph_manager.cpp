@@ -406,6 +406,16 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   }
   const bool has_visual = !submap.empty() && !submap.bow.empty();
   BowVector bow = submap.bow;
+  // Re-flying a mapped place: the node, its edges and yaw factor are added and the keyframe
+  // still queries (with its own described points and BoW vector, kept in `pending` below), but
+  // its visual submap is not stored. The run's first keyframe has no component to compare with
+  // (a loaded map is in another one until relocalisation).
+  const bool culled = has_visual && has_previous &&
+                      submapIsRedundant(static_cast<PoseGraphNodeId>(map_.numNodes()), kf.t, p_w_b, previous);
+  if (culled) {
+    submap = VisualSubmap();
+    ++stats_.culled_submaps;
+  }
   const PoseGraphNodeId id = map_.addNode(kf.t, session, kf.T_odom_b, p_w_b, yaw_w_b, std::move(submap), false);
   if (has_previous) {
     if (new_session) {
@@ -439,6 +449,26 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   if (keyframes_since_optimisation_ >= options_.optimise_every_n_keyframes &&
       (!map_.yawMeasurements().empty() || !map_.loopEdges().empty()))
     requestOptimisation(OptimisationTrigger::kPeriodic);
+}
+
+bool PoseGraphManager::submapIsRedundant(PoseGraphNodeId new_node, double t, const Eigen::Vector3d& p_w_b,
+                                         PoseGraphNodeId component_node) const {
+  const LoopDetectorOptions& o = options_.loop;
+  if (!(o.redundant_submap_radius_m > 0.0)) return false;
+  const double r2 = o.redundant_submap_radius_m * o.redundant_submap_radius_m;
+  const uint32_t component = map_.componentOf(component_node);
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    if (n.bow_image < 0) continue;  // no visual submap (culled, empty image)
+    if ((n.pose.p_w_b.head<2>() - p_w_b.head<2>()).squaredNorm() > r2) continue;
+    if (std::abs(n.pose.p_w_b.z() - p_w_b.z()) > o.redundant_submap_max_height_difference_m) continue;
+    // Not recent, with the loop candidates' exclusion: the VIO's own latest keyframes overlap
+    // by construction and would cull each other before any of them could be a loop candidate.
+    if (isRecentKeyframe(o, map_, new_node, t, i)) continue;
+    if (map_.componentOf(i) != component) continue;
+    return true;
+  }
+  return false;
 }
 
 void PoseGraphManager::handleSignature(const SignatureWindow& w) {

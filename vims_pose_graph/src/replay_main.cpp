@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+#include <sys/resource.h>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/log.h"
@@ -182,6 +183,28 @@ int main(int argc, char** argv) {
     std::cout << "replayed " << n_kf << " keyframes, " << n_sig << " signatures, " << n_geo
               << " geomagnetic samples; mode " << toString(options.mode) << ": " << s.loop_queries << " queries, "
               << s.loop_attempts << " attempts, " << s.loops_accepted << " loops accepted\n";
+    {
+      // Size of the map: the visual submaps held in memory (vector capacities) and the map file.
+      rusage usage{};
+      getrusage(RUSAGE_SELF, &usage);  // before serialising (the bytes below are a second copy of the map)
+      size_t submaps = 0, keypoints = 0, submap_bytes = 0, file_bytes = 0;
+      manager.inspectMap([&](const MultiScaleMap& map) {
+        for (const MapNode& n : map.nodes()) {
+          if (n.visual.empty()) continue;
+          ++submaps;
+          keypoints += n.visual.keypoints.size();
+          submap_bytes += n.visual.keypoints.capacity() * sizeof(cv::KeyPoint) +
+                          n.visual.descriptors.capacity() * sizeof(BinaryDescriptor) +
+                          n.visual.normalized.capacity() * sizeof(Eigen::Vector2d) +
+                          n.visual.bow.entries.capacity() * sizeof(BowEntry);
+        }
+        file_bytes = map.serialize(options.vocabularyPath()).size();
+      });
+      std::cout << std::fixed << std::setprecision(2) << "map: " << s.keyframes << " keyframes, " << submaps
+                << " visual submaps (" << keypoints << " keypoints, " << 1e-6 * submap_bytes << " MB in memory), "
+                << s.culled_submaps << " redundant submaps culled; map file " << 1e-6 * file_bytes
+                << " MB; max RSS " << 1e-3 * usage.ru_maxrss << " MB\n";
+    }
     {
       // Cost of the pose-graph optimisation: one row per solve, and a summary line.
       const PoseGraphTimings timings = manager.timings();

@@ -134,6 +134,11 @@ TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
   EXPECT_NE(error("loop_closing: {match_ratio: 1.5}").find("loop_closing.match_ratio"), std::string::npos);
   EXPECT_NE(error("loop_closing: {pnp_min_inliers: 3}").find("loop_closing.pnp_min_inliers"), std::string::npos);
   EXPECT_NE(error("loop_closing: {ratio: 0.8}").find("loop_closing.ratio"), std::string::npos);
+  EXPECT_NE(error("loop_closing: {redundant_submap_radius_m: -0.5}").find("loop_closing.redundant_submap_radius_m"),
+            std::string::npos);
+  EXPECT_NE(error("loop_closing: {redundant_submap_max_height_difference_m: -1}")
+                .find("loop_closing.redundant_submap_max_height_difference_m"),
+            std::string::npos);
   EXPECT_NE(error("magnetic_submaps: {max_radius_m: -1}").find("magnetic_submaps.max_radius_m"), std::string::npos);
   EXPECT_NE(error("features: {descriptor: brief}").find("features.descriptor"), std::string::npos);
   EXPECT_NE(error("pose_graph: {loop_loss: l2}").find("pose_graph.loop_loss"), std::string::npos);

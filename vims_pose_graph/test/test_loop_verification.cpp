@@ -314,6 +314,32 @@ TEST(LoopVerification, CovisibilityRejectsAPoseTheNeighboursContradict) {
   EXPECT_TRUE(bad.has_pose);
 }
 
+TEST(LoopVerification, CovisibilityStepsOverNeighboursWithoutVisualSubmap) {
+  // Over a re-flown area the match's temporal neighbours may have no visual submap (culled as
+  // redundant, LoopDetectorOptions::redundant_submap_radius_m). The covisibility check then uses
+  // the nearest neighbours that have one; with only the +-2 keyframes around the match, all
+  // without submap, the correct revisit would be rejected.
+  test::TestWorld world(kWorldSeed);
+  PassMap pass(world, DescriptorType::kOrb, 0.0, 0.0, 9);
+  PassMap culled(world, DescriptorType::kOrb, 0.0, 0.0, 0);
+  const uint32_t s = culled.map.addSession(0, false);
+  for (int i = 0; i < 9; ++i) {
+    const Eigen::Isometry3d& T = pass.poses[static_cast<size_t>(i)];
+    const bool keep = i < 2 || i == 4 || i > 6;  // nodes 2, 3, 5, 6 (within 2 of the match 4) culled
+    culled.map.addNode(i, s, T, T.translation(), 0.0,
+                       keep ? pass.map.node(static_cast<PoseGraphNodeId>(i)).visual : VisualSubmap(), true);
+    if (i > 0) culled.map.addSequentialEdge(static_cast<PoseGraphNodeId>(i - 1), static_cast<PoseGraphNodeId>(i));
+  }
+  const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.9, 0.1), 2.6, 120.0);
+  const LoopQuery q = culled.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
+  LoopVerifier verifier(testLoopOptions(), world.camera());
+  const VerificationResult r = verifier.verify(q, culled.map, 4);
+  ASSERT_TRUE(r.has_pose) << r.num_matches << " matches, " << r.num_inliers << " inliers";
+  EXPECT_EQ(r.stage, LoopStage::kAccepted);
+  EXPECT_GE(r.covisibility_confirming_neighbours, 1);
+  expectPoseNear(r.T_match_query, pass.poses[4].inverse() * T_w_bq, 0.1, 2.0);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The 2NN ratio test and the PnP inlier minimum each matter
 // ---------------------------------------------------------------------------------------------

@@ -90,6 +90,24 @@ struct LoopDetectorOptions {
   int exclude_recent_keyframes = 50;
   double exclude_recent_s = 30.0;
 
+  // --- redundant visual submaps (a bounded map over an already-mapped area)
+  /// A new keyframe stores no visual submap (it stays a pose-graph node and still runs its loop
+  /// query, but is no loop candidate) when a keyframe of the same connected component that has a
+  /// visual submap and is not recent (exclude_recent_keyframes / exclude_recent_s, as for loop
+  /// candidates; keyframes of a loaded map are never recent) lies within this horizontal
+  /// distance [m] of the new keyframe's current world position and within
+  /// redundant_submap_max_height_difference_m vertically: that older submap already shows the
+  /// place to a later revisit, so re-flying a mapped area does not grow the map. 0 disables.
+  /// 0.5 m: the camera sees 1.51 h x 1.13 h of seabed at altitude h, 3.2 x 2.4 m at tank750's
+  /// lowest 2.1 m, so a culled view overlaps the kept one by >= 79 %; and it stays below
+  /// MagneticSubmapOptions::cluster_margin_m, so a magnetic submap tied to a culled keyframe
+  /// still clusters the kept submap of its place.
+  double redundant_submap_radius_m = 0.5;
+  /// Submaps of the same place seen from another altitude are kept: the seabed appears at
+  /// another scale, and a later revisit at that altitude matches them with fewer pyramid levels
+  /// apart. 0.5 m [m]: 2.6 / 2.1 = 1.24, about one ORB level (1.2) at the lowest altitude.
+  double redundant_submap_max_height_difference_m = 0.5;
+
   // --- magnetic stage
   /// The query's signature is the valid one nearest in time within this [s] (hop 0.4 s: one is
   /// always within 0.2 s while the coil is heard). None: the stage is skipped with a warning.
@@ -182,7 +200,8 @@ struct LoopDetectorOptions {
   int pnp_min_inliers = 25;
 
   // --- covisibility
-  /// The match's temporal neighbours (same session, up to this many keyframes either side) must
+  /// The match's temporal neighbours (same session, up to this many keyframes with a visual
+  /// submap either side, stepping over ones without within 2x this many keyframes) must
   /// also see the PnP inliers: each inlier is projected into a neighbour with the neighbour's
   /// VIO pose relative to the match, and is confirmed by a neighbour keypoint within
   /// covisibility_search_radius_px whose descriptor is within match_max_distance. 0 disables.

@@ -122,6 +122,13 @@ struct DetectionResult {
   std::vector<std::pair<PoseGraphNodeId, double>> bow_candidates; ///< verified, in order (node, score)
 };
 
+/// The loop candidates' exclusion: true when `candidate` is a keyframe of the current run (not
+/// loaded) that is not older than a query keyframe with id `query` at time `t_query`, or within
+/// options.exclude_recent_keyframes keyframes or exclude_recent_s seconds of it. The query need
+/// not be in the map yet (PoseGraphManager asks before adding a keyframe).
+bool isRecentKeyframe(const LoopDetectorOptions& options, const MultiScaleMap& map, PoseGraphNodeId query,
+                      double t_query, PoseGraphNodeId candidate);
+
 class HierarchicalLoopDetector {
  public:
   /// Throws std::invalid_argument for invalid options.
@@ -134,7 +141,7 @@ class HierarchicalLoopDetector {
   DetectionResult detect(const LoopQuery& query, const MultiScaleMap& map) const;
 
   /// True for keyframes of the current run (not loaded) within exclude_recent_keyframes
-  /// keyframes or exclude_recent_s seconds of the query.
+  /// keyframes or exclude_recent_s seconds of the query (isRecentKeyframe).
   bool isRecent(const MultiScaleMap& map, PoseGraphNodeId query, PoseGraphNodeId candidate) const;
 
   const LoopVerifier& verifier() const { return verifier_; }

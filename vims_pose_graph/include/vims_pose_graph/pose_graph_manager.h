@@ -87,6 +87,9 @@ struct PoseGraphManagerStats {
   size_t keyframes = 0;           ///< accepted into the graph (this run)
   size_t keyframes_rejected = 0;  ///< non-finite pose, time not increasing
   size_t empty_keyframes = 0;     ///< no visual submap (no image / no corners)
+  /// Keyframes whose visual submap was not stored: an older one of the same place already is
+  /// (LoopDetectorOptions::redundant_submap_radius_m); they still ran their loop query.
+  size_t culled_submaps = 0;
   size_t loaded_keyframes = 0;
   size_t sessions = 0;            ///< of this run
   size_t loop_queries = 0;
@@ -209,6 +212,11 @@ class PoseGraphManager {
 
   // Handlers (state lock held).
   void handleKeyframe(const KeyframeData& keyframe, VisualSubmap submap, DescribedPoints points);
+  /// Whether a keyframe about to become node `new_node` at world position p_w_b, joining the
+  /// component of node `component_node`, would only repeat a visual submap already in the map
+  /// (LoopDetectorOptions::redundant_submap_radius_m).
+  bool submapIsRedundant(PoseGraphNodeId new_node, double t, const Eigen::Vector3d& p_w_b,
+                         PoseGraphNodeId component_node) const;
   void handleSignature(const SignatureWindow& window);
   void handleGeomagnetic(double t, const Eigen::Vector3d& field_body);
   void handleFinish();
