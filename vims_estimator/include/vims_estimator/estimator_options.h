@@ -75,11 +75,11 @@ struct EstimatorOptions {
   double sonar_min_range_std_m = 0.01;
 
   // ---- time offset ----
-  /// Estimate the camera-IMU time offset td online (t_stamp = t_exposure + td). Off by default:
-  /// on the simulated tank sequences (slow motion, image speeds of 20-40 px/s) the online
-  /// estimate is still biased by -20..-70 ms (measured; docs/estimator.md), which costs more
-  /// accuracy than an uncorrected offset of a few tens of ms. Enable it for a camera with a
-  /// known large, unknown offset.
+  /// Estimate the camera-IMU time offset td online (t_stamp = t_exposure + td). It recovers a
+  /// simulated 30 ms delay within 3 ms and costs no accuracy without a delay (tank750 seed 1:
+  /// 0.040 % either way; docs/estimator.md). Off by default because the contract's sequences
+  /// (and the simulator unless --camera-delay) stamp images at exposure; turn it on for a real
+  /// camera, whose stamps usually lag the IMU.
   bool estimate_td = false;
   /// [s] Initial td (e.g. a calibrated value).
   double td_initial_s = 0.0;
@@ -87,11 +87,10 @@ struct EstimatorOptions {
   /// correction (uv + td vel) is no longer valid at AUV rotation rates.
   double max_abs_td_s = 0.2;
   /// [px/s] td is held constant in a solve unless the mean image speed of the window's tracked
-  /// features exceeds this. td is only observable through image motion, and the tracker's
-  /// velocity is a frame difference whose noise (sqrt(2) x 0.3-0.5 px KLT jitter / 0.1 s = 4-7
-  /// px/s) correlates with the observation noise: at low speed this errors-in-variables effect
-  /// pulls td towards -dt/2 and beyond. 20 px/s keeps that bias below a few ms.
-  double td_min_image_speed_px_s = 20.0;
+  /// features exceeds this: td is only observable through image motion. With the flattened
+  /// tracker (docs/frontends.md) td on tank60 / tank_td30 (0 / 30 ms delay) is -1.6 / +28.4 ms
+  /// at 5 and 10 px/s, -1.8 / +27.4 ms at 20, -1.5 / +17.4 ms at 40 (fewer windows inform td).
+  double td_min_image_speed_px_s = 10.0;
 
   // ---- initialisation ----
   /// [s] Accelerometer averaging window for gravity at initialisation (before the first frame):

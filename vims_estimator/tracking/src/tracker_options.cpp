@@ -20,6 +20,8 @@ void forEachOption(Options& o, Visitor&& visit) {
   visit("min_quality_level", o.min_quality_level, 1e-6, 1.0);
   visit("quality_decrease_factor", o.quality_decrease_factor, 0.01, 0.99);
   visit("min_corner_response", o.min_corner_response, 0.0, 1.0);
+  visit("illumination_sigma_px", o.illumination_sigma_px, 0.0, 1000.0);
+  visit("illumination_target_mean", o.illumination_target_mean, 1.0, 255.0);
   visit("clahe_enabled", o.clahe_enabled, false, true);
   visit("clahe_clip_limit", o.clahe_clip_limit, 0.1, 100.0);
   visit("clahe_tiles", o.clahe_tiles, 1, 64);

@@ -235,6 +235,28 @@ std::vector<std::size_t> thinByDistanceLongestFirst(const std::vector<cv::Point2
   return kept;
 }
 
+void flattenIllumination(const cv::Mat& image, double sigma_px, int downsample, double target_mean, cv::Mat* out,
+                         IlluminationBuffers* buffers) {
+  CV_Assert(image.type() == CV_8UC1 && sigma_px > 0.0 && downsample >= 1 && out != &image);
+  const double scale = 1.0 / downsample;
+  cv::resize(image, buffers->small_u8, cv::Size(), scale, scale, cv::INTER_AREA);
+  buffers->small_u8.convertTo(buffers->small, CV_32F);
+  const double sigma_small = sigma_px * scale;
+  cv::GaussianBlur(buffers->small, buffers->low_small, cv::Size(0, 0), sigma_small, 0, cv::BORDER_CONSTANT);
+  if (buffers->coverage.size() != buffers->small.size()) {
+    const cv::Mat ones(buffers->small.size(), CV_32F, cv::Scalar(1.0));
+    cv::GaussianBlur(ones, buffers->coverage, cv::Size(0, 0), sigma_small, 0, cv::BORDER_CONSTANT);
+  }
+  cv::divide(buffers->low_small, buffers->coverage, buffers->low_small);
+  // The gain is formed at the low resolution (cheap) and then upsampled: the division at full
+  // resolution is a multiplication by a smooth field.
+  cv::max(buffers->low_small, 1.0, buffers->low_small);
+  cv::divide(target_mean, buffers->low_small, buffers->low_small);
+  cv::resize(buffers->low_small, buffers->gain, image.size(), 0, 0, cv::INTER_LINEAR);
+  // 8-bit x float gain, rounded and saturated to 8 bits.
+  cv::multiply(image, buffers->gain, *out, 1.0, CV_8U);
+}
+
 EpipolarCheck epipolarRansac(const std::vector<Eigen::Vector2d>& previous_normalized,
                              const std::vector<Eigen::Vector2d>& current_normalized, double focal_px,
                              double threshold_px, double confidence, int max_iterations) {

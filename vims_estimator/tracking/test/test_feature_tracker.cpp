@@ -169,6 +169,74 @@ TEST(FeatureTracker, FollowsKnownShiftAndRotationWithinThreeTenthsPixelOnDarkNoi
   EXPECT_GE(f1.features.size(), 140u) << "refilled up to the budget";
 }
 
+/// A lamp on the vehicle: a Gaussian beam times cos^4 vignetting and fall-off, fixed to the
+/// camera (1 on the axis, ~0.2 in the corners at this test camera's 460 px focal length).
+cv::Mat lampPattern() {
+  cv::Mat lamp(kImageSize, CV_32F);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const double tan2 = (std::pow(x - 319.5, 2) + std::pow(y - 239.5, 2)) / (460.0 * 460.0);
+      const double cos2 = 1.0 / (1.0 + tan2);
+      const double off_axis = std::acos(std::sqrt(cos2));
+      lamp.at<float>(y, x) = static_cast<float>(std::exp(-std::pow(off_axis / (65.0 * M_PI / 180.0), 2)) * cos2 * cos2);
+    }
+  }
+  return lamp;
+}
+
+/// RMS error [px] of the tracks at age >= `min_age` against where their first observation's
+/// texture point really is, over a 30-frame pass across the texture under the lamp.
+double driftUnderLamp(const vims::TrackerOptions& options, int min_age) {
+  const cv::Mat texture = makeTexture(kCanvasSize, 5);
+  const cv::Mat lamp = lampPattern();
+  vims::FeatureTracker tracker(pinholeCalibration(), options);
+  std::map<std::uint64_t, std::pair<ImagePose, Eigen::Vector2d>> first_seen;
+  double sum = 0.0;
+  int count = 0;
+  for (int k = 0; k < 30; ++k) {
+    ImagePose pose;
+    pose.angle_deg = 0.3 * k;  // a slow turn while crossing the floor
+    pose.shift = Eigen::Vector2d(4.0 * k, 2.5 * k);
+    const cv::Mat scene = kDarkMean * 2.5 + kLowContrast * 2.5 * (renderFloat(texture, pose) - 0.5);
+    const cv::Mat lit = scene.mul(lamp);
+    const vims::TrackedFrame frame = tracker.process(frameAt(0.1 * k, addNoiseAndQuantise(lit, kNoiseSigma, 500 + k)));
+    for (const vims::TrackedFeature& f : frame.features) {
+      const auto it = first_seen.emplace(f.id, std::make_pair(pose, f.pixel)).first;
+      if (f.track_length < min_age) continue;
+      sum += (f.pixel - mapPixel(it->second.first, pose, it->second.second)).squaredNorm();
+      ++count;
+    }
+  }
+  EXPECT_GT(count, 100);
+  return std::sqrt(sum / std::max(count, 1));
+}
+
+// The lamp lights the floor unevenly and moves with the camera, so a floor point changes grey
+// level as it crosses the image. KLT assumes constant brightness and drifts along each track
+// (in the estimator this error accumulates like a random walk and biased yaw in turns and td,
+// docs/frontends.md). Tracking on the flattened image (default) keeps long tracks on their point.
+TEST(FeatureTracker, LampFixedToTheCameraDoesNotMakeLongTracksDrift) {
+  const double flattened = driftUnderLamp(vims::TrackerOptions(), 15);
+  vims::TrackerOptions clahe;
+  clahe.illumination_sigma_px = 0.0;
+  clahe.clahe_enabled = true;
+  const double with_clahe = driftUnderLamp(clahe, 15);
+  vims::TrackerOptions raw = clahe;
+  raw.clahe_enabled = false;
+  raw.klt_min_eigen_threshold = 1e-5;
+  const double without = driftUnderLamp(raw, 15);
+  std::cout << "rms error at track age >= 15 under the lamp: flattened " << flattened << " px, CLAHE "
+            << with_clahe << " px, raw " << without << " px\n";
+  // Measured: flattened 0.31 px, CLAHE 1.07 px, raw 1.71 px.
+  EXPECT_LT(flattened, 0.5);
+  // The scene does make KLT drift without the flattening (else this test would show nothing).
+  EXPECT_GT(with_clahe, 2.0 * flattened);
+  EXPECT_GT(without, 2.0 * flattened);
+  RecordProperty("flattened_px", std::to_string(flattened));
+  RecordProperty("clahe_px", std::to_string(with_clahe));
+  RecordProperty("raw_px", std::to_string(without));
+}
+
 TEST(FeatureTracker, IdsPersistAlongTracksAndAreNeverReused) {
   const cv::Mat texture = makeTexture(kCanvasSize, 2);
   vims::FeatureTracker tracker(pinholeCalibration(), vims::TrackerOptions());
@@ -221,55 +289,68 @@ TEST(FeatureTracker, IdsPersistAlongTracksAndAreNeverReused) {
 
 TEST(FeatureTracker, ForwardBackwardCheckRemovesTracksIntoAnOccludedRegion) {
   // In the second frame a region shows a different texture (a fish or a silt cloud covering the
-  // floor): KLT converges to something there, the backward pass does not come home.
-  const cv::Mat texture = makeTexture(kCanvasSize, 3);
-  const cv::Mat occluder = makeTexture(kCanvasSize, 33);
-  const ImagePose first;
-  ImagePose second;
-  second.shift = Eigen::Vector2d(6.0, 3.0);
+  // floor): KLT converges to something there, the backward pass rarely comes home. Whether one
+  // track in a given scene happens to come home is chance, so the rates are taken over 20 scenes.
   const cv::Rect2d occluded(200, 150, 240, 180);  // in frame-2 pixels
-  cv::Mat scene2 = renderFloat(texture, second);
-  renderFloat(occluder, second)(occluded).copyTo(scene2(occluded));
-  const cv::Mat image1 = renderDark(texture, first, 300);
-  const cv::Mat image2 = toCameraImage(scene2, kDarkMean, kLowContrast, kNoiseSigma, 301);
+  int heading_into_occluder = 0, survivors_inside = 0, rejected_fb = 0;
+  int wrong_after_ransac = 0, continued_after_ransac = 0;
+  for (unsigned seed = 3; seed < 23; ++seed) {
+    const cv::Mat texture = makeTexture(kCanvasSize, seed);
+    const cv::Mat occluder = makeTexture(kCanvasSize, seed + 30);
+    const ImagePose first;
+    ImagePose second;
+    second.shift = Eigen::Vector2d(6.0, 3.0);
+    cv::Mat scene2 = renderFloat(texture, second);
+    renderFloat(occluder, second)(occluded).copyTo(scene2(occluded));
+    const cv::Mat image1 = renderDark(texture, first, 300);
+    const cv::Mat image2 = toCameraImage(scene2, kDarkMean, kLowContrast, kNoiseSigma, 301);
 
-  // (a) The forward-backward check alone (RANSAC off) removes nearly all tracks into the occluder.
-  vims::TrackerOptions fb_only;
-  fb_only.ransac_enabled = false;
-  vims::FeatureTracker tracker(pinholeCalibration(), fb_only);
-  const vims::TrackedFrame f0 = tracker.process(frameAt(0.0, image1));
-  const vims::TrackedFrame f1 = tracker.process(frameAt(0.1, image2));
-  ASSERT_EQ(f1.status, vims::FrameStatus::kTracked);
-  int heading_into_occluder = 0;
-  for (const auto& f : f0.features) {
-    if (insideRect(mapPixel(first, second, f.pixel), occluded, 12.0)) ++heading_into_occluder;
-  }
-  ASSERT_GE(heading_into_occluder, 10);
-  const auto previous = byId(f0);
-  int survivors_inside = 0;
-  for (const vims::TrackedFeature& f : f1.features) {
-    if (f.track_length > 1 && insideRect(mapPixel(first, second, previous.at(f.id).pixel), occluded, 12.0)) {
-      ++survivors_inside;
+    // (a) The forward-backward check alone (RANSAC off).
+    vims::TrackerOptions fb_only;
+    fb_only.ransac_enabled = false;
+    vims::FeatureTracker tracker(pinholeCalibration(), fb_only);
+    const vims::TrackedFrame f0 = tracker.process(frameAt(0.0, image1));
+    const vims::TrackedFrame f1 = tracker.process(frameAt(0.1, image2));
+    ASSERT_EQ(f1.status, vims::FrameStatus::kTracked);
+    for (const auto& f : f0.features) {
+      if (insideRect(mapPixel(first, second, f.pixel), occluded, 12.0)) ++heading_into_occluder;
+    }
+    const auto previous = byId(f0);
+    for (const vims::TrackedFeature& f : f1.features) {
+      if (f.track_length > 1 && insideRect(mapPixel(first, second, previous.at(f.id).pixel), occluded, 12.0)) {
+        ++survivors_inside;
+      }
+    }
+    rejected_fb += f1.stats.rejected_fb;
+
+    // (b) With the RANSAC as well (the defaults): tracks away from the occluder are exact; at
+    // its edge, partially covered windows may be biased a little. A wrong track along the motion
+    // (the epipolar direction of this pure translation) cannot be seen by the RANSAC.
+    vims::FeatureTracker full(pinholeCalibration(), vims::TrackerOptions());
+    const vims::TrackedFrame g0 = full.process(frameAt(0.0, image1));
+    const vims::TrackedFrame g1 = full.process(frameAt(0.1, image2));
+    const auto previous_full = byId(g0);
+    for (const vims::TrackedFeature& f : g1.features) {
+      if (f.track_length == 1) continue;
+      ++continued_after_ransac;
+      const Eigen::Vector2d expected = mapPixel(first, second, previous_full.at(f.id).pixel);
+      const bool near_occluder = insideRect(expected, occluded, -12.0);
+      if (!((f.pixel - expected).norm() < (near_occluder ? 1.5 : 0.3))) ++wrong_after_ransac;
     }
   }
-  EXPECT_GT(f1.stats.rejected_fb, 0);
+  ASSERT_GE(heading_into_occluder, 200);
+  EXPECT_GT(rejected_fb, heading_into_occluder / 2);
+  // Measured: 36 of 347 (tracking on the CLAHE image instead of the flattened one: 33 of 347).
   EXPECT_LE(survivors_inside, heading_into_occluder / 8)
       << "of " << heading_into_occluder << " tracks into the occluder, " << survivors_inside << " survived";
+  // Measured: 25 wrong of 2452 continued tracks over the 20 scenes (tracking on CLAHE: 19), against
+  // 347 tracks into the occluders.
+  EXPECT_LE(wrong_after_ransac, heading_into_occluder / 10)
+      << wrong_after_ransac << " wrong of " << continued_after_ransac << " continued tracks";
   RecordProperty("fb_only_survivors_into_occluder", survivors_inside);
   RecordProperty("tracks_into_occluder", heading_into_occluder);
-
-  // (b) With the RANSAC as well (the defaults), no wrong track survives: tracks away from the
-  // occluder's edge are exact; at its edge, partially covered windows may be biased a little.
-  vims::FeatureTracker full(pinholeCalibration(), vims::TrackerOptions());
-  const vims::TrackedFrame g0 = full.process(frameAt(0.0, image1));
-  const vims::TrackedFrame g1 = full.process(frameAt(0.1, image2));
-  const auto previous_full = byId(g0);
-  for (const vims::TrackedFeature& f : g1.features) {
-    if (f.track_length == 1) continue;
-    const Eigen::Vector2d expected = mapPixel(first, second, previous_full.at(f.id).pixel);
-    const bool near_occluder = insideRect(expected, occluded, -12.0);
-    EXPECT_LT((f.pixel - expected).norm(), near_occluder ? 1.5 : 0.3) << "at " << expected.transpose();
-  }
+  RecordProperty("wrong_after_ransac", wrong_after_ransac);
+  RecordProperty("continued_after_ransac", continued_after_ransac);
 }
 
 TEST(FeatureTracker, RansacRemovesAnIndependentlyMovingPatch) {

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -218,4 +219,62 @@ TEST(SelectCorners, SelectionIsStrongestFirstAndIndependentOfCandidateOrder) {
   EXPECT_EQ(a, b);
   ASSERT_EQ(a.size(), 8u);
   EXPECT_EQ(a.front(), cv::Point2f(10.0f + 30.0f * 6, 20));  // response 0.35, first in raster order
+}
+
+namespace {
+/// A lamp fixed to the camera: bright on the axis, 1/4 of it in the corners (smooth).
+cv::Mat lampField(cv::Size size) {
+  cv::Mat lamp(size, CV_32F);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const double r2 = (std::pow(x - 0.5 * size.width, 2) + std::pow(y - 0.5 * size.height, 2)) / std::pow(400.0, 2);
+      lamp.at<float>(y, x) = static_cast<float>(1.0 / std::pow(1.0 + r2, 2));
+    }
+  return lamp;
+}
+
+cv::Scalar meanAndStd(const cv::Mat& image, const cv::Rect& roi, double* stddev) {
+  cv::Scalar mean, sd;
+  cv::meanStdDev(image(roi), mean, sd);
+  *stddev = sd[0];
+  return mean;
+}
+}  // namespace
+
+// Flattening divides out the lamp: a uniform floor comes out at the target grey level everywhere,
+// corners included (the border mean is taken over the image only), and a textured floor keeps
+// the same contrast in the dark corners as on the bright axis.
+TEST(FlattenIllumination, RemovesACameraFixedLampAndEqualisesContrast) {
+  const cv::Size size(640, 480);
+  const cv::Mat lamp = lampField(size);
+  cv::Mat uniform;
+  cv::Mat(200.0f * lamp).convertTo(uniform, CV_8U);
+  vims::IlluminationBuffers buffers;
+  cv::Mat flat;
+  vims::flattenIllumination(uniform, 20.0, 8, 128.0, &flat, &buffers);
+  ASSERT_EQ(flat.type(), CV_8UC1);
+  ASSERT_EQ(flat.size(), size);
+  double min_value = 0.0, max_value = 0.0;
+  cv::minMaxLoc(flat, &min_value, &max_value);
+  // Within 12 %: at the very corner the mean over the image only leans towards the brighter inside.
+  EXPECT_GT(min_value, 128.0 * 0.88) << "the input ranges over 40..200";
+  EXPECT_LT(max_value, 128.0 * 1.12);
+
+  // Texture: +-30 % albedo checks of 8 px under the same lamp.
+  cv::Mat albedo(size, CV_32F);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) albedo.at<float>(y, x) = ((x / 8 + y / 8) % 2) ? 1.3f : 0.7f;
+  cv::Mat textured;
+  cv::Mat(150.0f * albedo.mul(lamp)).convertTo(textured, CV_8U);
+  vims::flattenIllumination(textured, 20.0, 8, 128.0, &flat, &buffers);
+  const cv::Rect centre(288, 208, 64, 64), corner(8, 8, 64, 64);
+  double sd_centre_in = 0.0, sd_corner_in = 0.0, sd_centre = 0.0, sd_corner = 0.0;
+  meanAndStd(textured, centre, &sd_centre_in);
+  meanAndStd(textured, corner, &sd_corner_in);
+  const double mean_centre = meanAndStd(flat, centre, &sd_centre)[0];
+  const double mean_corner = meanAndStd(flat, corner, &sd_corner)[0];
+  ASSERT_GT(sd_centre_in, 2.5 * sd_corner_in) << "the lamp darkens the corner";
+  EXPECT_NEAR(mean_centre, 128.0, 6.0);
+  EXPECT_NEAR(mean_corner, 128.0, 12.0);
+  EXPECT_NEAR(sd_corner / sd_centre, 1.0, 0.25) << "centre " << sd_centre << ", corner " << sd_corner;
 }

@@ -119,7 +119,7 @@ class FeatureTracker {
   /// KLT, forward-backward check and RANSAC of tracks_ from previous_pyramid_ into
   /// current_pyramid_; updates tracks_ and stats.
   void trackIntoCurrentFrame(double dt, TrackerStats* stats);
-  /// Thins tracks_ by distance and adds new corners of enhanced_ in the free regions.
+  /// Thins tracks_ by distance and adds new corners of detection_image_ in the free regions.
   void detectNewFeatures(TrackerStats* stats);
 
   CameraModel camera_;
@@ -132,7 +132,9 @@ class FeatureTracker {
   // Per-frame images kept between frames only so that their memory is reused (see
   // CornerResponseBuffers); their content never carries over.
   std::vector<cv::Mat> current_pyramid_;
-  cv::Mat enhanced_;
+  cv::Mat detection_image_;  ///< CLAHE (or the raw image): corners are detected here
+  cv::Mat flattened_;        ///< flattenIllumination: KLT tracks here
+  IlluminationBuffers illumination_buffers_;
   cv::Mat occupancy_;
   CornerResponseBuffers corner_buffers_;
   bool has_last_stamp_ = false;

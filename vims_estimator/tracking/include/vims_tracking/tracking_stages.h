@@ -83,6 +83,25 @@ std::vector<std::size_t> thinByDistanceLongestFirst(const std::vector<cv::Point2
                                                     const std::vector<int>& track_lengths, double min_distance_px,
                                                     cv::Mat* occupancy);
 
+/// Buffers flattenIllumination() reuses from frame to frame (no per-frame allocation).
+struct IlluminationBuffers {
+  cv::Mat small_u8;   ///< area-downsampled image
+  cv::Mat small;      ///< the same, float
+  cv::Mat low_small;  ///< its Gaussian low-pass
+  cv::Mat coverage;   ///< the same low-pass of an all-ones image (zero outside): the border weights
+  cv::Mat gain;       ///< target / low-pass, upsampled to the image size, float
+};
+
+/// Removes the illumination that is fixed to the camera (a lamp's beam, its 1/r^2 fall-off,
+/// vignetting) from an 8-bit mono image: out = clamp(target_mean * image / L, 0, 255), where L is
+/// the image's local mean, a Gaussian low-pass of standard deviation `sigma_px` (computed on a copy
+/// area-downsampled by `downsample`, then bilinearly upsampled; floored at 1 grey level). What
+/// remains is the seabed's reflectance pattern, which moves with the scene, so a seabed point keeps
+/// its grey level as it crosses the image (KLT's brightness constancy); dark frames are equalised
+/// to `target_mean` on the way. `out` may not alias `image`.
+void flattenIllumination(const cv::Mat& image, double sigma_px, int downsample, double target_mean, cv::Mat* out,
+                         IlluminationBuffers* buffers);
+
 /// Outcome of the epipolar check on one set of correspondences.
 struct EpipolarCheck {
   std::vector<std::uint8_t> inlier;  ///< 1 = consistent with the fundamental matrix
