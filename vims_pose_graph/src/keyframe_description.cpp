@@ -1,8 +1,10 @@
 #include "vims_pose_graph/keyframe_description.h"
 
+#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -241,7 +243,23 @@ VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std
   DescribedPoints described = describePoints(image, features);
   if (include_tracked_corners_ && !submap.empty() && !described.descriptors.empty())
     appendReplicated(described, std::numeric_limits<int>::max(), features_.orb_scale_factor, camera_, &submap);
-  if (dense_corners_ > 0 && features_.descriptor == DescriptorType::kOrb && !submap.empty()) {
+  if (dense_corners_ > 0 && features_.descriptor == DescriptorType::kOrb && !submap.empty() && dense_per_level_) {
+    // The same detector on every level: a corner of the seabed seen from higher up (smaller in
+    // the image) is found on the level where it has the size it has in the query.
+    const cv::Mat mono = toMono8(image);
+    const std::vector<cv::Mat> pyramid = buildPyramid(mono);
+    for (int level = 0; level <= dense_max_level_ && level < static_cast<int>(pyramid.size()); ++level) {
+      const int n = static_cast<int>(std::lround(dense_corners_ / std::pow(features_.orb_scale_factor, 2.0 * level)));
+      std::vector<KeyframeLandmark> pseudo;  // 2D only: the 3D position is not used for keypoints
+      for (const cv::Point2f& c : cornersOnLevel(pyramid, level, n, dense_min_distance_px_)) {
+        KeyframeLandmark l;
+        l.pixel = Eigen::Vector2d(c.x, c.y);
+        pseudo.push_back(l);
+      }
+      appendReplicated(describePointsOnLevels(mono, pseudo, level, level), level, features_.orb_scale_factor, camera_,
+                       &submap);
+    }
+  } else if (dense_corners_ > 0 && features_.descriptor == DescriptorType::kOrb && !submap.empty()) {
     // The tracker's detector (Shi-Tomasi, block 3), densely: whichever corners the VIO happened
     // to track at the query, the candidate then has a keypoint at most of them.
     const cv::Mat mono = toMono8(image);
@@ -264,8 +282,86 @@ DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const st
   return describePoints(image, features, std::numeric_limits<int>::max());
 }
 
+std::vector<cv::Point2f> KeyframeDescriber::cornersOnLevel(const std::vector<cv::Mat>& pyramid, int level,
+                                                          int max_corners, double min_distance_px) const {
+  std::vector<cv::Point2f> corners;
+  if (level < 0 || level >= static_cast<int>(pyramid.size()) || max_corners <= 0) return corners;
+  cv::goodFeaturesToTrack(pyramid[static_cast<size_t>(level)], corners, max_corners, 0.001, min_distance_px,
+                          cv::noArray(), 3, false);
+  // cv::ORB's convention for its own keypoints (level pixel x scale), so both kinds agree.
+  const float scale = static_cast<float>(std::pow(features_.orb_scale_factor, level));
+  for (cv::Point2f& c : corners) c *= scale;
+  return corners;
+}
+
+DescribedPoints KeyframeDescriber::describeSeabedCorners(const cv::Mat& image, const DescribedPoints& tracked,
+                                                         const Eigen::Isometry3d& T_odom_c, int max_corners,
+                                                         double min_distance_px, int max_level) {
+  DescribedPoints out;
+  const cv::Mat mono = toMono8(image);
+  if (mono.empty() || max_corners <= 0 || max_level < 1 || features_.descriptor != DescriptorType::kOrb) return out;
+  // The tracked points in the camera: pixel, normalised coordinates, inverse depth.
+  const Eigen::Isometry3d T_c_odom = T_odom_c.inverse();
+  std::vector<Eigen::Vector2d> pixel, xy;
+  std::vector<double> inverse_depth;
+  for (size_t i = 0; i < tracked.numPoints(); ++i) {
+    const Eigen::Vector3d p_c = T_c_odom * tracked.p_odom[i];
+    if (!(p_c.z() > 1e-3) || !p_c.allFinite() || !tracked.pixel[i].allFinite()) continue;
+    pixel.push_back(tracked.pixel[i]);
+    xy.push_back(p_c.head<2>() / p_c.z());
+    inverse_depth.push_back(1.0 / p_c.z());
+  }
+  if (pixel.size() < static_cast<size_t>(kNeighbours)) return out;
+  const std::vector<cv::Mat> pyramid = buildPyramid(mono);
+  uint64_t next_id = uint64_t{1} << 63;
+  for (int level = 1; level <= max_level && level < static_cast<int>(pyramid.size()); ++level) {
+    const int n = static_cast<int>(std::lround(max_corners / std::pow(features_.orb_scale_factor, 2.0 * (level - 1))));
+    const std::vector<cv::Point2f> corners = cornersOnLevel(pyramid, level, n, min_distance_px);
+    const std::vector<Eigen::Vector2d> normalized = undistortPixels(camera_, corners);
+    std::vector<KeyframeLandmark> landmarks;
+    std::vector<std::pair<double, size_t>> nearest(pixel.size());
+    for (size_t c = 0; c < corners.size(); ++c) {
+      const Eigen::Vector2d px(corners[c].x, corners[c].y);
+      for (size_t i = 0; i < pixel.size(); ++i) nearest[i] = {(pixel[i] - px).squaredNorm(), i};
+      std::partial_sort(nearest.begin(), nearest.begin() + kNeighbours, nearest.end());
+      // Least squares of 1/z = a x + b y + c over the neighbours (3x3 normal equations).
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      double w_min = 1e300, w_max = 0.0;
+      for (int k = 0; k < kNeighbours; ++k) {
+        const size_t i = nearest[static_cast<size_t>(k)].second;
+        const Eigen::Vector3d row(xy[i].x(), xy[i].y(), 1.0);
+        A += row * row.transpose();
+        b += row * inverse_depth[i];
+        w_min = std::min(w_min, inverse_depth[i]);
+        w_max = std::max(w_max, inverse_depth[i]);
+      }
+      const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
+      if (lu.rank() < 3) continue;  // neighbours on a line: the plane is not determined
+      const Eigen::Vector3d abc = lu.solve(b);
+      const double w = abc.dot(Eigen::Vector3d(normalized[c].x(), normalized[c].y(), 1.0));
+      const double margin = 0.5 * (w_max - w_min);
+      if (!(w > 0.0) || w < w_min - margin || w > w_max + margin) continue;
+      KeyframeLandmark l;
+      l.id = next_id++;
+      l.pixel = Eigen::Vector2d(corners[c].x, corners[c].y);
+      l.normalized = normalized[c];
+      l.p_odom = T_odom_c * (Eigen::Vector3d(normalized[c].x(), normalized[c].y(), 1.0) / w);
+      landmarks.push_back(l);
+    }
+    mergeDescribedPoints(&out, describePointsOnLevels(mono, landmarks, level, level));
+  }
+  return out;
+}
+
 DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
                                                   int max_level) {
+  return describePointsOnLevels(image, features, 0, max_level);
+}
+
+DescribedPoints KeyframeDescriber::describePointsOnLevels(const cv::Mat& image,
+                                                          const std::vector<KeyframeLandmark>& features, int min_level,
+                                                          int max_level) {
   DescribedPoints out;
   const cv::Mat mono = toMono8(image);
   if (mono.empty() || features.empty()) return out;
@@ -300,7 +396,7 @@ DescribedPoints KeyframeDescriber::describePoints(const cv::Mat& image, const st
   if (features_.descriptor == DescriptorType::kOrb) {
     const std::vector<cv::Mat> pyramid = buildPyramid(mono);
     const int levels = static_cast<int>(std::min<size_t>(pyramid.size(), static_cast<size_t>(std::max(max_level, 0)) + 1));
-    for (int level = 0; level < levels; ++level) {
+    for (int level = std::max(min_level, 0); level < levels; ++level) {
       const double scale = std::pow(features_.orb_scale_factor, level);
       for (size_t u = 0; u < usable.size(); ++u) {
         const cv::Point2f pt0(static_cast<float>(out.pixel[u].x()), static_cast<float>(out.pixel[u].y()));

@@ -144,8 +144,11 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
                             "bow_min_score", "bow_max_candidates", "bow_max_candidates_all", "harris_threshold",
                             "submap_include_tracked_corners", "submap_dense_corners", "query_local_map_keyframes",
                             "submap_corner_min_distance_px", "submap_corner_max_level", "match_ratio", "match_max_distance",
-                            "match_max_level_difference", "match_duplicate_radius_px",
+                            "match_max_level_difference", "match_duplicate_radius_px", "match_level_from_altitude",
+                            "match_predicted_level_tolerance", "proximity_candidates", "proximity_radius_m",
+                            "submap_dense_corners_per_level", "query_seabed_corners", "query_seabed_min_level_shift",
                             "pnp_reprojection_px", "pnp_iterations", "pnp_confidence", "pnp_min_inliers",
+                            "pnp_max_tilt_error_deg",
                             "covisibility_neighbours", "covisibility_min_points", "covisibility_min_ratio",
                             "covisibility_min_neighbours", "covisibility_search_radius_px",
                             "record_prefilter_rejections"});
@@ -187,6 +190,12 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireInRange(reader, "submap_corner_min_distance_px", o.submap_corner_min_distance_px, 1.0, 1000.0);
   o.submap_corner_max_level = reader.get<int>("submap_corner_max_level", o.submap_corner_max_level);
   requireInRange(reader, "submap_corner_max_level", o.submap_corner_max_level, 0, 16);
+  o.submap_dense_corners_per_level =
+      reader.get<bool>("submap_dense_corners_per_level", o.submap_dense_corners_per_level);
+  o.query_seabed_corners = reader.get<int>("query_seabed_corners", o.query_seabed_corners);
+  requireInRange(reader, "query_seabed_corners", o.query_seabed_corners, 0, 100000);
+  o.query_seabed_min_level_shift = reader.get<double>("query_seabed_min_level_shift", o.query_seabed_min_level_shift);
+  requireInRange(reader, "query_seabed_min_level_shift", o.query_seabed_min_level_shift, 0.0, 64.0);
   o.match_ratio = reader.get<double>("match_ratio", o.match_ratio);
   requireInRange(reader, "match_ratio", o.match_ratio, 0.01, 1.0);
   o.match_max_distance = reader.get<int>("match_max_distance", o.match_max_distance);
@@ -195,6 +204,14 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireInRange(reader, "match_max_level_difference", o.match_max_level_difference, -1, 64);
   o.match_duplicate_radius_px = reader.get<double>("match_duplicate_radius_px", o.match_duplicate_radius_px);
   requireInRange(reader, "match_duplicate_radius_px", o.match_duplicate_radius_px, 0.0, 100.0);
+  o.match_level_from_altitude = reader.get<bool>("match_level_from_altitude", o.match_level_from_altitude);
+  o.match_predicted_level_tolerance =
+      reader.get<double>("match_predicted_level_tolerance", o.match_predicted_level_tolerance);
+  requireInRange(reader, "match_predicted_level_tolerance", o.match_predicted_level_tolerance, 0.0, 64.0);
+  o.proximity_candidates = reader.get<int>("proximity_candidates", o.proximity_candidates);
+  requireInRange(reader, "proximity_candidates", o.proximity_candidates, 0, 1000);
+  o.proximity_radius_m = reader.get<double>("proximity_radius_m", o.proximity_radius_m);
+  requireInRange(reader, "proximity_radius_m", o.proximity_radius_m, 0.0, 1000.0);
   o.pnp_reprojection_px = reader.get<double>("pnp_reprojection_px", o.pnp_reprojection_px);
   requireInRange(reader, "pnp_reprojection_px", o.pnp_reprojection_px, 0.1, 100.0);
   o.pnp_iterations = reader.get<int>("pnp_iterations", o.pnp_iterations);
@@ -203,6 +220,8 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireInRange(reader, "pnp_confidence", o.pnp_confidence, 0.5, 0.999999);
   o.pnp_min_inliers = reader.get<int>("pnp_min_inliers", o.pnp_min_inliers);
   requireInRange(reader, "pnp_min_inliers", o.pnp_min_inliers, 6, 100000);
+  o.pnp_max_tilt_error_deg = reader.get<double>("pnp_max_tilt_error_deg", o.pnp_max_tilt_error_deg);
+  requireInRange(reader, "pnp_max_tilt_error_deg", o.pnp_max_tilt_error_deg, 0.0, 180.0);
   o.covisibility_neighbours = reader.get<int>("covisibility_neighbours", o.covisibility_neighbours);
   requireInRange(reader, "covisibility_neighbours", o.covisibility_neighbours, 0, 100);
   o.covisibility_min_points = reader.get<int>("covisibility_min_points", o.covisibility_min_points);
@@ -237,14 +256,20 @@ void LoopDetectorOptions::validate() const {
   check(query_local_map_keyframes >= 0, w, "query_local_map_keyframes");
   check(submap_corner_min_distance_px >= 1.0, w, "submap_corner_min_distance_px");
   check(submap_corner_max_level >= 0, w, "submap_corner_max_level");
+  check(query_seabed_corners >= 0, w, "query_seabed_corners");
+  check(query_seabed_min_level_shift >= 0.0, w, "query_seabed_min_level_shift");
   check(match_ratio > 0.0 && match_ratio <= 1.0, w, "match_ratio");
   check(match_max_distance >= 0 && match_max_distance <= 256, w, "match_max_distance");
   check(match_max_level_difference >= -1, w, "match_max_level_difference");
   check(match_duplicate_radius_px >= 0.0, w, "match_duplicate_radius_px");
+  check(match_predicted_level_tolerance >= 0.0, w, "match_predicted_level_tolerance");
+  check(proximity_candidates >= 0, w, "proximity_candidates");
+  check(proximity_radius_m >= 0.0, w, "proximity_radius_m");
   check(pnp_reprojection_px > 0.0, w, "pnp_reprojection_px");
   check(pnp_iterations >= 1, w, "pnp_iterations");
   check(pnp_confidence > 0.0 && pnp_confidence < 1.0, w, "pnp_confidence");
   check(pnp_min_inliers >= 6, w, "pnp_min_inliers");
+  check(pnp_max_tilt_error_deg >= 0.0, w, "pnp_max_tilt_error_deg");
   check(covisibility_neighbours >= 0, w, "covisibility_neighbours");
   check(covisibility_min_points >= 1, w, "covisibility_min_points");
   check(covisibility_min_ratio >= 0.0 && covisibility_min_ratio <= 1.0, w, "covisibility_min_ratio");
@@ -272,14 +297,22 @@ std::string LoopDetectorOptions::toYaml() const {
      << "query_local_map_keyframes: " << query_local_map_keyframes << "\n"
      << "submap_corner_min_distance_px: " << submap_corner_min_distance_px << "\n"
      << "submap_corner_max_level: " << submap_corner_max_level << "\n"
+     << "submap_dense_corners_per_level: " << (submap_dense_corners_per_level ? "true" : "false") << "\n"
+     << "query_seabed_corners: " << query_seabed_corners << "\n"
+     << "query_seabed_min_level_shift: " << query_seabed_min_level_shift << "\n"
      << "match_ratio: " << match_ratio << "\n"
      << "match_max_distance: " << match_max_distance << "\n"
      << "match_max_level_difference: " << match_max_level_difference << "\n"
      << "match_duplicate_radius_px: " << match_duplicate_radius_px << "\n"
+     << "match_level_from_altitude: " << (match_level_from_altitude ? "true" : "false") << "\n"
+     << "match_predicted_level_tolerance: " << match_predicted_level_tolerance << "\n"
+     << "proximity_candidates: " << proximity_candidates << "\n"
+     << "proximity_radius_m: " << proximity_radius_m << "\n"
      << "pnp_reprojection_px: " << pnp_reprojection_px << "\n"
      << "pnp_iterations: " << pnp_iterations << "\n"
      << "pnp_confidence: " << pnp_confidence << "\n"
      << "pnp_min_inliers: " << pnp_min_inliers << "\n"
+     << "pnp_max_tilt_error_deg: " << pnp_max_tilt_error_deg << "\n"
      << "covisibility_neighbours: " << covisibility_neighbours << "\n"
      << "covisibility_min_points: " << covisibility_min_points << "\n"
      << "covisibility_min_ratio: " << covisibility_min_ratio << "\n"

@@ -29,12 +29,12 @@ std::vector<std::vector<uint32_t>> descriptorsByPoint(const DescribedPoints& poi
 }
 
 /// Distance of a described point to a keypoint: the best over the point's descriptors whose
-/// level is within max_level_difference of the keypoint's octave (< 0: all levels).
+/// level the window admits for the keypoint's octave.
 inline int pointDistance(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
-                         const BinaryDescriptor& other, int octave, int max_level_difference) {
+                         const BinaryDescriptor& other, int octave, const LevelWindow& levels) {
   int best = 257;
   for (uint32_t d : descriptor_ids) {
-    if (max_level_difference >= 0 && std::abs(points.level_of_descriptor[d] - octave) > max_level_difference) continue;
+    if (!levels.admits(points.level_of_descriptor[d], octave)) continue;
     best = std::min(best, hammingDistance(points.descriptors[d], other));
   }
   return best;
@@ -49,11 +49,11 @@ class DescriptorsByOctave {
   static constexpr int kOctaves = 16;
 
   DescriptorsByOctave(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
-                      int max_level_difference) {
+                      const LevelWindow& levels) {
     for (int o = 0; o < kOctaves; ++o) {
       begin_[static_cast<size_t>(o)] = flat_.size();
       for (uint32_t d : descriptor_ids)
-        if (max_level_difference < 0 || std::abs(points.level_of_descriptor[d] - o) <= max_level_difference)
+        if (levels.admits(points.level_of_descriptor[d], o))
           flat_.push_back(points.descriptors[d]);
     }
     begin_[kOctaves] = flat_.size();
@@ -72,7 +72,7 @@ class DescriptorsByOctave {
 VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points,
                                                    const std::vector<uint32_t>& descriptor_ids,
                                                    const DescriptorsByOctave& by_octave,
-                                                   const VisualSubmap& candidate, int max_level_difference,
+                                                   const VisualSubmap& candidate, const LevelWindow& levels,
                                                    std::vector<int>* distance) {
   size_t best = 0;
   for (size_t k = 0; k < candidate.keypoints.size(); ++k) {
@@ -82,7 +82,7 @@ VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points
       for (const BinaryDescriptor* it = by_octave.begin(octave); it != by_octave.end(octave); ++it)
         d = std::min(d, hammingDistance(*it, candidate.descriptors[k]));
     } else {
-      d = pointDistance(points, descriptor_ids, candidate.descriptors[k], octave, max_level_difference);
+      d = pointDistance(points, descriptor_ids, candidate.descriptors[k], octave, levels);
     }
     (*distance)[k] = d;
     if (d < (*distance)[best]) best = k;
@@ -112,13 +112,13 @@ int ransacIterationsToReject(size_t num_matches, int min_inliers, double confide
 VIMS_POPCOUNT_DISPATCH bool hasMatchingKeypointNear(const DescribedPoints& points,
                                                     const std::vector<uint32_t>& descriptor_ids,
                                                     const VisualSubmap& submap, const Eigen::Vector2d& uv,
-                                                    double radius2, int max_distance, int max_level_difference) {
+                                                    double radius2, int max_distance, const LevelWindow& levels) {
   for (size_t k = 0; k < submap.keypoints.size(); ++k) {
     const double dx = submap.keypoints[k].pt.x - uv.x();
     const double dy = submap.keypoints[k].pt.y - uv.y();
     if (dx * dx + dy * dy > radius2) continue;
     if (pointDistance(points, descriptor_ids, submap.descriptors[k], submap.keypoints[k].octave,
-                      max_level_difference) <= max_distance)
+                      levels) <= max_distance)
       return true;
   }
   return false;
@@ -154,9 +154,36 @@ LoopStage loopStageFromString(const std::string& name) {
 // Matching
 // ---------------------------------------------------------------------------------------------
 
+double altitudeLevelShift(double depth_query, double depth_candidate, double scale_factor) {
+  if (!(depth_query > 0.0) || !(depth_candidate > 0.0) || !(scale_factor > 1.0) || !std::isfinite(depth_query) ||
+      !std::isfinite(depth_candidate))
+    return std::numeric_limits<double>::quiet_NaN();
+  return std::log(depth_query / depth_candidate) / std::log(scale_factor);
+}
+
+double medianQueryDepth(const DescribedPoints& points, const Eigen::Isometry3d& T_odom_c) {
+  const Eigen::Isometry3d T_c_odom = T_odom_c.inverse();
+  std::vector<double> depth;
+  depth.reserve(points.numPoints());
+  for (const Eigen::Vector3d& p : points.p_odom) {
+    const double z = (T_c_odom * p).z();
+    if (z > 0.0 && std::isfinite(z)) depth.push_back(z);
+  }
+  if (depth.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(depth.begin(), depth.begin() + static_cast<std::ptrdiff_t>(depth.size() / 2), depth.end());
+  return depth[depth.size() / 2];
+}
+
 std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, const VisualSubmap& candidate,
                                                double ratio, int max_distance, double duplicate_radius_px,
                                                int max_level_difference) {
+  return matchPointsToKeypoints(points, candidate, ratio, max_distance, duplicate_radius_px,
+                                LevelWindow::around(max_level_difference));
+}
+
+std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, const VisualSubmap& candidate,
+                                               double ratio, int max_distance, double duplicate_radius_px,
+                                               const LevelWindow& levels) {
   std::vector<PointMatch> matches;
   const size_t num_keypoints = candidate.keypoints.size();
   if (points.empty() || num_keypoints == 0 || candidate.descriptors.size() != num_keypoints) return matches;
@@ -165,8 +192,8 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
   std::vector<int> distance(num_keypoints);
   for (uint32_t p = 0; p < by_point.size(); ++p) {
     if (by_point[p].empty()) continue;
-    const DescriptorsByOctave by_octave(points, by_point[p], max_level_difference);
-    const size_t best = distancesToKeypoints(points, by_point[p], by_octave, candidate, max_level_difference, &distance);
+    const DescriptorsByOctave by_octave(points, by_point[p], levels);
+    const size_t best = distancesToKeypoints(points, by_point[p], by_octave, candidate, levels, &distance);
     if (distance[best] > max_distance) continue;
     if (ratio < 1.0) {
       // Second best among keypoints at another place: the same corner detected on another
@@ -203,11 +230,29 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
 // LoopVerifier
 // ---------------------------------------------------------------------------------------------
 
-LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera)
-    : options_(options), camera_(camera), T_b_c_(camera.T_b_c), T_c_b_(camera.T_b_c.inverse()) {
+LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera,
+                           const FeatureExtractionOptions& features)
+    : options_(options), camera_(camera), features_(features), T_b_c_(camera.T_b_c), T_c_b_(camera.T_b_c.inverse()) {
   options_.validate();
   if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || camera.width <= 0 || camera.height <= 0)
     throw std::invalid_argument("LoopVerifier: invalid camera calibration");
+}
+
+LevelWindow LoopVerifier::levelWindow(const LoopQuery& query, const MultiScaleMap& map,
+                                      PoseGraphNodeId candidate) const {
+  const LevelWindow around = LevelWindow::around(options_.match_max_level_difference);
+  if (!options_.match_level_from_altitude || features_.descriptor != DescriptorType::kOrb ||
+      features_.orb_levels < 2 || query.node >= map.numNodes() || candidate >= map.numNodes() ||
+      !map.sameComponent(query.node, candidate))
+    return around;
+  const double depth_query = medianQueryDepth(query.points, query.T_odom_b * T_b_c_);
+  // Same place, same seabed: the candidate camera is as much farther from it as it is higher.
+  const double height_query = (map.node(query.node).pose.T_w_b() * T_b_c_).translation().z();
+  const double height_candidate = (map.node(candidate).pose.T_w_b() * T_b_c_).translation().z();
+  const double shift =
+      altitudeLevelShift(depth_query, depth_query + (height_candidate - height_query), features_.orb_scale_factor);
+  if (!std::isfinite(shift)) return around;
+  return LevelWindow{shift, options_.match_predicted_level_tolerance};
 }
 
 VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScaleMap& map,
@@ -215,9 +260,20 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   VerificationResult r;
   const MapNode& cand = map.node(candidate);
   const VisualSubmap& sub = cand.visual;
+  const LevelWindow levels = levelWindow(query, map, candidate);
+  // The query's seabed corners only across a scale change (their interpolated depths are less
+  // exact than the VIO's landmarks; at about the same altitude the tracked points suffice).
+  DescribedPoints with_seabed;
+  const bool use_seabed = !query.seabed_points.empty() && levels.tolerance >= 0.0 &&
+                          std::abs(levels.shift) >= options_.query_seabed_min_level_shift;
+  if (use_seabed) {
+    with_seabed = query.points;
+    mergeDescribedPoints(&with_seabed, query.seabed_points);
+  }
+  const DescribedPoints& points = use_seabed ? with_seabed : query.points;
   const std::vector<PointMatch> matches =
-      matchPointsToKeypoints(query.points, sub, options_.match_ratio, options_.match_max_distance,
-                             options_.match_duplicate_radius_px, options_.match_max_level_difference);
+      matchPointsToKeypoints(points, sub, options_.match_ratio, options_.match_max_distance,
+                             options_.match_duplicate_radius_px, levels);
   r.num_matches = static_cast<int>(matches.size());
   if (r.num_matches < options_.pnp_min_inliers) {
     r.stage = LoopStage::kMatching;
@@ -231,7 +287,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   object.reserve(matches.size());
   image.reserve(matches.size());
   for (const PointMatch& m : matches) {
-    const Eigen::Vector3d& p = query.points.p_odom[m.point];
+    const Eigen::Vector3d& p = points.p_odom[m.point];
     object.emplace_back(p.x(), p.y(), p.z());
     image.emplace_back(sub.normalized[m.keypoint].x(), sub.normalized[m.keypoint].y());
   }
@@ -284,9 +340,22 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   Eigen::Isometry3d T_cm_odomq = Eigen::Isometry3d::Identity();
   T_cm_odomq.linear() = R_cm_odomq;
   T_cm_odomq.translation() = t_cm_odomq;
+  // Gravity: both VIO frames are gravity-aligned, so the candidate camera's "up" is known from
+  // its own VIO attitude and, through the PnP pose, from the query's frame. Over a flat seabed
+  // a tilt error and a lateral shift give nearly the same image motion; a PnP pose tilted
+  // against the VIO is off in position by ~depth x tilt too.
+  if (options_.pnp_max_tilt_error_deg > 0.0) {
+    const Eigen::Vector3d up_pnp = R_cm_odomq * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_vio = (cand.pose.T_odom_b * T_b_c_).linear().transpose() * Eigen::Vector3d::UnitZ();
+    r.tilt_error_deg = std::acos(std::clamp(up_pnp.dot(up_vio), -1.0, 1.0)) * 180.0 / M_PI;
+    if (r.tilt_error_deg > options_.pnp_max_tilt_error_deg) {
+      r.stage = LoopStage::kPnp;
+      return r;
+    }
+  }
   r.inlier_matches.clear();
   for (const PointMatch& m : matches) {
-    const Eigen::Vector3d p_c = T_cm_odomq * query.points.p_odom[m.point];
+    const Eigen::Vector3d p_c = T_cm_odomq * points.p_odom[m.point];
     if (!(p_c.z() > 0.0)) continue;  // a point behind the camera is never an inlier
     const Eigen::Vector2d e = p_c.head<2>() / p_c.z() - sub.normalized[m.keypoint];
     if (e.norm() <= threshold) r.inlier_matches.emplace_back(m.point, m.keypoint);
@@ -301,7 +370,8 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   r.has_pose = true;
 
   if (options_.covisibility_neighbours > 0) {
-    r.covisibility_confirming_neighbours = covisibleNeighbours(query, map, candidate, T_bm_odomq, r.inlier_matches);
+    r.covisibility_confirming_neighbours =
+        covisibleNeighbours(points, map, candidate, T_bm_odomq, r.inlier_matches, levels);
     if (r.covisibility_confirming_neighbours < options_.covisibility_min_neighbours) {
       r.stage = LoopStage::kCovisibility;
       return r;
@@ -311,11 +381,12 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   return r;
 }
 
-int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId match,
+int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
                                       const Eigen::Isometry3d& T_bm_odomq,
-                                      const std::vector<std::pair<uint32_t, uint32_t>>& inliers) const {
+                                      const std::vector<std::pair<uint32_t, uint32_t>>& inliers,
+                                      const LevelWindow& levels) const {
   const MapNode& m = map.node(match);
-  const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(query.points);
+  const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(points);
   const double r2 = options_.covisibility_search_radius_px * options_.covisibility_search_radius_px;
   // The match's neighbours: up to covisibility_neighbours keyframes of its session with a visual
   // submap on either side. Keyframes without one (empty image, or a redundant submap culled on
@@ -345,11 +416,11 @@ int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMa
     for (const auto& [point, keypoint] : inliers) {
       (void)keypoint;
       Eigen::Vector2d uv;
-      if (!projectToPixel(camera_, T_cn_odomq * query.points.p_odom[point], &uv)) continue;
+      if (!projectToPixel(camera_, T_cn_odomq * points.p_odom[point], &uv)) continue;
       if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() >= camera_.width || uv.y() >= camera_.height) continue;
       ++projected;
-      if (hasMatchingKeypointNear(query.points, by_point[point], n.visual, uv, r2, options_.match_max_distance,
-                                  options_.match_max_level_difference))
+      // The neighbours were flown at about the match's altitude: the match's level window.
+      if (hasMatchingKeypointNear(points, by_point[point], n.visual, uv, r2, options_.match_max_distance, levels))
         ++confirmed;
     }
     if (projected >= options_.covisibility_min_points &&
@@ -366,11 +437,11 @@ int LoopVerifier::covisibleNeighbours(const LoopQuery& query, const MultiScaleMa
 HierarchicalLoopDetector::HierarchicalLoopDetector(const LoopDetectorOptions& options,
                                                    const MagneticSubmapOptions& magnetic_options,
                                                    const ModeSettings& mode, const CameraCalibration& camera,
-                                                   LoggerPtr logger)
+                                                   LoggerPtr logger, const FeatureExtractionOptions& features)
     : options_(options),
       magnetic_options_(magnetic_options),
       mode_(mode),
-      verifier_(options, camera),
+      verifier_(options, camera, features),
       logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   magnetic_options_.validate();
 }
@@ -383,6 +454,30 @@ bool isRecentKeyframe(const LoopDetectorOptions& options, const MultiScaleMap& m
     return true;
   if (candidate > query) return true;  // not older than the query
   return t_query - c.pose.t < options.exclude_recent_s;
+}
+
+std::vector<PoseGraphNodeId> HierarchicalLoopDetector::proximityCandidates(
+    const LoopQuery& query, const MultiScaleMap& map, const std::vector<PoseGraphNodeId>& exclude) const {
+  std::vector<PoseGraphNodeId> out;
+  if (options_.proximity_candidates <= 0 || query.node >= map.numNodes()) return out;
+  const Eigen::Vector2d p_query = map.node(query.node).pose.p_w_b.head<2>();
+  const double r2 = options_.proximity_radius_m * options_.proximity_radius_m;
+  std::vector<std::pair<double, PoseGraphNodeId>> near;  // (squared horizontal distance, node)
+  for (PoseGraphNodeId n = 0; n < map.numNodes(); ++n) {
+    const MapNode& c = map.node(n);
+    if (n == query.node || c.bow_image < 0 || isRecent(map, query.node, n) || !map.sameComponent(n, query.node) ||
+        std::find(exclude.begin(), exclude.end(), n) != exclude.end())
+      continue;
+    const double d2 = (c.pose.p_w_b.head<2>() - p_query).squaredNorm();
+    if (d2 <= r2) near.emplace_back(d2, n);
+  }
+  std::sort(near.begin(), near.end());
+  for (const auto& [d2, n] : near) {
+    (void)d2;
+    if (out.size() >= static_cast<size_t>(options_.proximity_candidates)) break;
+    out.push_back(n);
+  }
+  return out;
 }
 
 bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeId query,
@@ -454,23 +549,24 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
       if (eligible(n)) pool.push_back(n);
   }
   res.bow_pool = pool;
+  std::vector<std::pair<PoseGraphNodeId, double>> candidates;
   if (pool.empty()) {
     if (magnetic_rejection && options_.record_prefilter_rejections) res.attempts.push_back(*magnetic_rejection);
-    return res;
   }
-
-  std::vector<ImageId> images;
-  images.reserve(pool.size());
-  for (PoseGraphNodeId n : pool) images.push_back(static_cast<ImageId>(map.node(n).bow_image));
-  const std::vector<BowQueryResult> scores = db->queryAmong(query.bow, images, images.size());
-  const size_t limit = static_cast<size_t>(mode_.verify_all_bow_candidates ? options_.bow_max_candidates_all
-                                                                           : options_.bow_max_candidates);
-  std::vector<std::pair<PoseGraphNodeId, double>> candidates;
-  for (const BowQueryResult& s : scores) {
-    if (s.score < options_.bow_min_score || candidates.size() >= limit) break;
-    candidates.emplace_back(map.nodeOfImage(s.image), s.score);
+  std::vector<BowQueryResult> scores;
+  if (!pool.empty()) {
+    std::vector<ImageId> images;
+    images.reserve(pool.size());
+    for (PoseGraphNodeId n : pool) images.push_back(static_cast<ImageId>(map.node(n).bow_image));
+    scores = db->queryAmong(query.bow, images, images.size());
+    const size_t limit = static_cast<size_t>(mode_.verify_all_bow_candidates ? options_.bow_max_candidates_all
+                                                                             : options_.bow_max_candidates);
+    for (const BowQueryResult& s : scores) {
+      if (s.score < options_.bow_min_score || candidates.size() >= limit) break;
+      candidates.emplace_back(map.nodeOfImage(s.image), s.score);
+    }
   }
-  if (candidates.empty()) {
+  if (!pool.empty() && candidates.empty()) {
     if (options_.record_prefilter_rejections) {
       if (!scores.empty()) {
         const PoseGraphNodeId n = map.nodeOfImage(scores.front().image);
@@ -484,14 +580,32 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
         res.attempts.push_back(*magnetic_rejection);
       }
     }
-    return res;
+  }
+  res.bow_candidates = candidates;
+
+  // Candidates from the pose graph's estimate (LoopDetectorOptions::proximity_candidates),
+  // verified after the BoW ones: a place flown again at another height, which the appearance
+  // and magnetic stages do not recognise.
+  std::vector<std::pair<PoseGraphNodeId, double>> to_verify = candidates;
+  const size_t num_bow_candidates = candidates.size();
+  if (options_.proximity_candidates > 0) {
+    std::vector<PoseGraphNodeId> verified_by_bow;
+    for (const auto& c : candidates) verified_by_bow.push_back(c.first);
+    res.proximity_candidates = proximityCandidates(query, map, verified_by_bow);
+    for (const PoseGraphNodeId n : res.proximity_candidates) {
+      double score = std::numeric_limits<double>::quiet_NaN();
+      for (const BowQueryResult& s : scores)
+        if (map.nodeOfImage(s.image) == n) score = s.score;
+      to_verify.emplace_back(n, score);
+    }
   }
 
-  res.bow_candidates = candidates;
-  for (const auto& [n, score] : candidates) {
+  for (size_t i = 0; i < to_verify.size(); ++i) {
+    const auto& [n, score] = to_verify[i];
     const VerificationResult v = verifier_.verify(query, map, n);
     LoopAttempt a = attemptFor(n);
     a.bow_score = score;
+    a.proximity = i >= num_bow_candidates;
     const auto it = mag_distance_of.find(n);
     if (it != mag_distance_of.end()) a.mag_distance = it->second;
     a.stage = v.stage;

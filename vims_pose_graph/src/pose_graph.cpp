@@ -82,7 +82,7 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
                             "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
                             "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads",
                             "function_tolerance", "online_function_tolerance", "loop_solve_from_earliest_node",
-                            "window_keyframes"});
+                            "window_keyframes", "loop_local_solve_max_sigmas"});
   PoseGraphOptions o;
   auto positive = [&](const char* key, double fallback) {
     const double v = reader.get<double>(key, fallback);
@@ -128,6 +128,7 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   o.loop_solve_from_earliest_node = reader.get<bool>("loop_solve_from_earliest_node", o.loop_solve_from_earliest_node);
   o.window_keyframes = reader.get<int>("window_keyframes", o.window_keyframes);
   requireInRange(reader, "window_keyframes", o.window_keyframes, 0, 100000000);
+  o.loop_local_solve_max_sigmas = nonNegative("loop_local_solve_max_sigmas", o.loop_local_solve_max_sigmas);
   return o;
 }
 
@@ -151,6 +152,7 @@ void PoseGraphOptions::validate() const {
   check(function_tolerance > 0.0 && function_tolerance < 1.0, "function_tolerance");
   check(online_function_tolerance > 0.0 && online_function_tolerance < 1.0, "online_function_tolerance");
   check(window_keyframes >= 0, "window_keyframes");
+  check(loop_local_solve_max_sigmas >= 0.0 && std::isfinite(loop_local_solve_max_sigmas), "loop_local_solve_max_sigmas");
 }
 
 std::string PoseGraphOptions::toYaml() const {
@@ -174,7 +176,8 @@ std::string PoseGraphOptions::toYaml() const {
      << "function_tolerance: " << function_tolerance << "\n"
      << "online_function_tolerance: " << online_function_tolerance << "\n"
      << "loop_solve_from_earliest_node: " << (loop_solve_from_earliest_node ? "true" : "false") << "\n"
-     << "window_keyframes: " << window_keyframes << "\n";
+     << "window_keyframes: " << window_keyframes << "\n"
+     << "loop_local_solve_max_sigmas: " << loop_local_solve_max_sigmas << "\n";
   return os.str();
 }
 

@@ -34,6 +34,8 @@ std::string toString(OptimisationTrigger trigger) {
   switch (trigger) {
     case OptimisationTrigger::kLoop:
       return "loop";
+    case OptimisationTrigger::kDeferredLoops:
+      return "deferred_loops";
     case OptimisationTrigger::kFinish:
       return "finish";
     case OptimisationTrigger::kPeriodic:
@@ -61,12 +63,14 @@ PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const
       logger_(logger ? std::move(logger) : Logger::nullLogger()),
       describer_(options.featureOptions(), options.loop.harris_threshold, sequence.camera,
                  options.loop.submap_include_tracked_corners),
-      detector_(options.loop, options.magnetic, options.modeSettings(), sequence.camera, logger_),
+      detector_(options.loop, options.magnetic, options.modeSettings(), sequence.camera, logger_,
+                options.featureOptions()),
       map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
       magnetic_builder_(options.magnetic) {
   options_.validate();
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
                              options_.loop.submap_corner_max_level);
+  describer_.setDenseCornersPerLevel(options_.loop.submap_dense_corners_per_level);
   if (!vocabulary_ || vocabulary_->empty())
     throw std::invalid_argument("PoseGraphManager: no vocabulary (load " + options_.vocabularyPath() + ")");
   if (vocabulary_->descriptorType() != toString(mode_.descriptor))
@@ -172,11 +176,17 @@ void PoseGraphManager::dispatch(Event& event) {
     // runs before taking the lock.
     VisualSubmap submap;
     DescribedPoints points;
+    DescribedPoints seabed_points;
     if (std::isfinite(kf->t) && isValidPose(kf->T_odom_b)) {
       submap = describer_.describeKeyframe(kf->image, kf->features, vocabulary_.get(), &points);
+      if (options_.loop.query_seabed_corners > 0 && !submap.empty())
+        seabed_points = describer_.describeSeabedCorners(kf->image, points, kf->T_odom_b * sequence_.camera.T_b_c,
+                                                         options_.loop.query_seabed_corners,
+                                                         options_.loop.submap_corner_min_distance_px,
+                                                         options_.loop.submap_corner_max_level);
     }
     std::lock_guard<std::mutex> lk(state_mutex_);
-    handleKeyframe(*kf, std::move(submap), std::move(points));
+    handleKeyframe(*kf, std::move(submap), std::move(points), std::move(seabed_points));
   } else if (auto* w = std::get_if<SignatureWindow>(&event)) {
     std::lock_guard<std::mutex> lk(state_mutex_);
     handleSignature(*w);
@@ -234,20 +244,18 @@ void PoseGraphManager::optimiserLoop() {
       optimising_ = true;
     }
     try {
-      std::vector<ComponentSnapshot> snapshots;
-      size_t loops_included = 0;
+      SolvePlan plan;
       double t_keyframe = 0.0;
       {
         std::lock_guard<std::mutex> lk(state_mutex_);
-        snapshots = takeSnapshots(trigger);
-        loops_included = loops_awaiting_correction_.size();
+        plan = planSolve(trigger);
         t_keyframe = run_nodes_.empty() ? 0.0 : map_.node(run_nodes_.back()).pose.t;
       }
       // The solve runs without the map lock: keyframes keep arriving and outputs stay readable.
       std::vector<OptimisationRecord> records;
-      const std::vector<PoseGraphSolution> solutions = solveSnapshots(snapshots, trigger, t_keyframe, &records);
+      const std::vector<PoseGraphSolution> solutions = solveSnapshots(plan.snapshots, trigger, t_keyframe, &records);
       std::lock_guard<std::mutex> lk(state_mutex_);
-      applySolutions(snapshots, solutions, std::move(records), loops_included);
+      applySolutions(plan, solutions, std::move(records));
     } catch (const std::exception& e) {
       logger_->error(kComponent, VIMS_STR("optimisation failed: " << e.what()));
     }
@@ -263,45 +271,102 @@ void PoseGraphManager::requestOptimisation(OptimisationTrigger trigger) {
   keyframes_since_optimisation_ = 0;
   if (options_.synchronous) {
     if (map_.numNodes() == 0) return;
-    const std::vector<ComponentSnapshot> snapshots = takeSnapshots(trigger);
+    const SolvePlan plan = planSolve(trigger);
     const double t_keyframe = run_nodes_.empty() ? 0.0 : map_.node(run_nodes_.back()).pose.t;
     std::vector<OptimisationRecord> records;
-    const std::vector<PoseGraphSolution> solutions = solveSnapshots(snapshots, trigger, t_keyframe, &records);
-    applySolutions(snapshots, solutions, std::move(records), loops_awaiting_correction_.size());
+    const std::vector<PoseGraphSolution> solutions = solveSnapshots(plan.snapshots, trigger, t_keyframe, &records);
+    applySolutions(plan, solutions, std::move(records));
     return;
   }
+  // Requests during a solve merge into one; the merged solve reports the most specific trigger.
+  auto rank = [](OptimisationTrigger t) {
+    switch (t) {
+      case OptimisationTrigger::kFinish:
+        return 3;
+      case OptimisationTrigger::kLoop:
+        return 2;
+      case OptimisationTrigger::kDeferredLoops:
+        return 1;
+      case OptimisationTrigger::kPeriodic:
+        break;
+    }
+    return 0;
+  };
   {
     std::lock_guard<std::mutex> lk(queue_mutex_);  // lock order: state, then queue
     optimisation_requested_ = true;
-    if (trigger != OptimisationTrigger::kPeriodic) requested_trigger_ = trigger;
+    if (rank(trigger) > rank(requested_trigger_)) requested_trigger_ = trigger;
   }
   optimise_cv_.notify_one();
 }
 
-std::vector<ComponentSnapshot> PoseGraphManager::takeSnapshots(OptimisationTrigger trigger) const {
-  std::vector<ComponentSnapshot> snapshots;
-  if (map_.numNodes() == 0) return snapshots;
+bool PoseGraphManager::deferredSolveDue() const {
+  return !loops_awaiting_deferred_solve_.empty() &&
+         run_nodes_.size() >= loops_awaiting_deferred_solve_.front().run_keyframes +
+                                  static_cast<size_t>(std::max(1, options_.optimise_every_n_keyframes));
+}
+
+PoseGraphManager::SolvePlan PoseGraphManager::planSolve(OptimisationTrigger trigger) const {
+  SolvePlan plan;
+  if (map_.numNodes() == 0) return plan;
+  std::vector<ComponentSnapshot>& snapshots = plan.snapshots;
   snapshots.push_back(map_.snapshotComponent(0));
   if (!run_nodes_.empty() && !map_.sameComponent(0, run_nodes_.back()))
     snapshots.push_back(map_.snapshotComponent(run_nodes_.back()));
+  plan.loops_included = loops_awaiting_correction_.size();
 
   // What this solve optimises (global node ids; nodes are numbered in time order within a run,
-  // loaded maps first). After new loops: everything from the earliest node they touch (as
-  // VINS-Mono): older nodes are not in the new cycles. Otherwise (periodic, yaw factors of the
-  // newest keyframes): the newest window_keyframes. At the end of data: the whole graph,
-  // converged to the tighter function_tolerance.
+  // loaded maps first):
+  // - after new loops that the map already agrees with (local loop solve): the newest
+  //   window_keyframes and the loops' query nodes; the match side is held;
+  // - after other new loops: everything from the earliest node they, and the loops waiting for
+  //   their deferred solve, touch (as VINS-Mono): older nodes are not in the new cycles;
+  // - the deferred solve of loops corrected locally: from their earliest node on;
+  // - otherwise (periodic, yaw factors of the newest keyframes): the newest window_keyframes;
+  // - at the end of data: the whole graph, converged to the tighter function_tolerance.
   const PoseGraphOptions& g = options_.graph;
+  const bool has_window = g.window_keyframes > 0 && run_nodes_.size() > static_cast<size_t>(g.window_keyframes);
+  const PoseGraphNodeId window_start =
+      has_window ? run_nodes_[run_nodes_.size() - static_cast<size_t>(g.window_keyframes)] : 0;
+  auto earliestOf = [](const std::deque<AwaitingLoop>& loops, PoseGraphNodeId first) {
+    for (const AwaitingLoop& l : loops) first = std::min(first, l.earliest_node);
+    return first;
+  };
   PoseGraphNodeId first_free = 0;
-  if (trigger != OptimisationTrigger::kFinish) {
-    if (!loops_awaiting_correction_.empty()) {
-      if (g.loop_solve_from_earliest_node) {
-        first_free = loops_awaiting_correction_.front().earliest_node;
-        for (const AwaitingLoop& l : loops_awaiting_correction_) first_free = std::min(first_free, l.earliest_node);
-      }
-    } else if (g.window_keyframes > 0 && run_nodes_.size() > static_cast<size_t>(g.window_keyframes)) {
-      first_free = run_nodes_[run_nodes_.size() - static_cast<size_t>(g.window_keyframes)];
+  if (trigger == OptimisationTrigger::kFinish) {
+    plan.deferred_included = loops_awaiting_deferred_solve_.size();
+  } else if (!loops_awaiting_correction_.empty()) {
+    for (const AwaitingLoop& l : loops_awaiting_correction_) {
+      const auto it = std::find_if(map_.loopEdges().begin(), map_.loopEdges().end(),
+                                   [&](const LoopEdge& e) { return e.id == l.id; });
+      if (it == map_.loopEdges().end() || !it->enabled) continue;
+      const MapNode& m = map_.node(it->match);
+      const MapNode& q = map_.node(it->query);
+      const Eigen::Vector4d r = relativePose4DofResidual(m.pose.p_w_b, m.pose.yaw_w_b, q.pose.p_w_b, q.pose.yaw_w_b,
+                                                         it->measurement);
+      plan.max_new_loop_sigmas = std::max(plan.max_new_loop_sigmas, it->sqrt_information.cwiseProduct(r).norm());
     }
+    plan.local = g.loop_local_solve_max_sigmas > 0.0 && g.window_keyframes > 0 &&
+                 plan.max_new_loop_sigmas <= g.loop_local_solve_max_sigmas && !deferredSolveDue();
+    if (plan.local) {
+      first_free = window_start;
+      for (const AwaitingLoop& l : loops_awaiting_correction_) first_free = std::min(first_free, l.latest_node);
+    } else {
+      plan.deferred_included = loops_awaiting_deferred_solve_.size();
+      if (g.loop_solve_from_earliest_node)
+        first_free = earliestOf(loops_awaiting_deferred_solve_,
+                                earliestOf(loops_awaiting_correction_, loops_awaiting_correction_.front().earliest_node));
+    }
+  } else if (deferredSolveDue()) {
+    // By state, not trigger: asynchronous requests merge, and a request repeated while the
+    // deferred solve ran must not start another one for loops that are not due yet.
+    plan.deferred_included = loops_awaiting_deferred_solve_.size();
+    if (g.loop_solve_from_earliest_node)
+      first_free = earliestOf(loops_awaiting_deferred_solve_, loops_awaiting_deferred_solve_.front().earliest_node);
+  } else {
+    first_free = window_start;
   }
+  // The convex Huber stage is considered for loops not in any solve yet.
   LoopEdgeId first_new_loop = 0;  // no new loops: past the newest id
   if (!loops_awaiting_correction_.empty())
     first_new_loop = loops_awaiting_correction_.front().id;
@@ -313,7 +378,7 @@ std::vector<ComponentSnapshot> PoseGraphManager::takeSnapshots(OptimisationTrigg
         static_cast<size_t>(std::lower_bound(cs.ids.begin(), cs.ids.end(), first_free) - cs.ids.begin());
     cs.snapshot.first_new_loop_id = first_new_loop;
   }
-  return snapshots;
+  return plan;
 }
 
 std::vector<PoseGraphSolution> PoseGraphManager::solveSnapshots(const std::vector<ComponentSnapshot>& snapshots,
@@ -341,25 +406,35 @@ std::vector<PoseGraphSolution> PoseGraphManager::solveSnapshots(const std::vecto
   return solutions;
 }
 
-void PoseGraphManager::applySolutions(const std::vector<ComponentSnapshot>& snapshots,
-                                      const std::vector<PoseGraphSolution>& solutions,
-                                      std::vector<OptimisationRecord> records, size_t loops_included) {
-  for (size_t i = 0; i < snapshots.size(); ++i) map_.applySolution(snapshots[i], solutions[i]);
+void PoseGraphManager::applySolutions(const SolvePlan& plan, const std::vector<PoseGraphSolution>& solutions,
+                                      std::vector<OptimisationRecord> records) {
+  for (size_t i = 0; i < plan.snapshots.size(); ++i) map_.applySolution(plan.snapshots[i], solutions[i]);
   ++stats_.optimisations;
   const auto now = std::chrono::steady_clock::now();
-  for (size_t i = 0; i < loops_included && !loops_awaiting_correction_.empty(); ++i) {
-    timings_.loop_correction_ms.push_back(
-        1e3 * std::chrono::duration<double>(now - loops_awaiting_correction_.front().accepted).count());
+  const double cpu_now = threadCpuSeconds();
+  // Loops accepted while an asynchronous solve ran are behind the included ones and stay.
+  for (size_t i = 0; i < plan.deferred_included && !loops_awaiting_deferred_solve_.empty(); ++i)
+    loops_awaiting_deferred_solve_.pop_front();
+  for (size_t i = 0; i < plan.loops_included && !loops_awaiting_correction_.empty(); ++i) {
+    const AwaitingLoop& l = loops_awaiting_correction_.front();
+    timings_.loop_correction_ms.push_back(1e3 * std::chrono::duration<double>(now - l.accepted).count());
+    if (options_.synchronous) timings_.loop_correction_cpu_ms.push_back(1e3 * (cpu_now - l.accepted_cpu_s));
+    if (plan.local) loops_awaiting_deferred_solve_.push_back(l);
     loops_awaiting_correction_.pop_front();
   }
-  for (OptimisationRecord& r : records) timings_.solves.push_back(std::move(r));
+  for (OptimisationRecord& r : records) {
+    r.max_new_loop_sigmas = plan.max_new_loop_sigmas;
+    r.local_loop_solve = plan.local;
+    timings_.solves.push_back(std::move(r));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
 // Handlers (state lock held)
 // ---------------------------------------------------------------------------------------------
 
-void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap submap, DescribedPoints points) {
+void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap submap, DescribedPoints points,
+                                      DescribedPoints seabed_points) {
   if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) {
     ++stats_.keyframes_rejected;
     logger_->warnThrottled(kComponent, "bad_keyframe", std::isfinite(kf.t) ? kf.t : 0.0, 5.0,
@@ -442,12 +517,15 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   pending.t = kf.t;
   pending.bow = std::move(bow);
   pending.points = std::move(points);
+  pending.seabed_points = std::move(seabed_points);
   pending.has_visual = has_visual;
   pending_.push_back(std::move(pending));
   ++keyframes_since_optimisation_;
   processReady(false);
-  if (keyframes_since_optimisation_ >= options_.optimise_every_n_keyframes &&
-      (!map_.yawMeasurements().empty() || !map_.loopEdges().empty()))
+  if (deferredSolveDue())
+    requestOptimisation(OptimisationTrigger::kDeferredLoops);
+  else if (keyframes_since_optimisation_ >= options_.optimise_every_n_keyframes &&
+           (!map_.yawMeasurements().empty() || !map_.loopEdges().empty()))
     requestOptimisation(OptimisationTrigger::kPeriodic);
 }
 
@@ -577,6 +655,7 @@ void PoseGraphManager::processPending(PendingKeyframe& p) {
     while (recent_points_.size() > static_cast<size_t>(options_.loop.query_local_map_keyframes))
       recent_points_.pop_front();
   }
+  query.seabed_points = std::move(p.seabed_points);
   query.signature_enu = signature;
   ++stats_.loop_queries;
   DetectionResult result = detector_.detect(query, map_);
@@ -616,7 +695,8 @@ void PoseGraphManager::acceptLoop(const LoopAttempt& a) {
   }
   const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query);
   ++stats_.loops_accepted;
-  loops_awaiting_correction_.push_back(AwaitingLoop{std::chrono::steady_clock::now(), loop_id, std::min(m, q)});
+  loops_awaiting_correction_.push_back(AwaitingLoop{std::chrono::steady_clock::now(), threadCpuSeconds(), loop_id,
+                                                    std::min(m, q), std::max(m, q), run_nodes_.size()});
   logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
                                                  << " t_match=" << a.t_match << " inliers=" << a.inliers
                                                  << " bow=" << a.bow_score));
@@ -814,6 +894,7 @@ PoseGraphTimings PoseGraphManager::timings(size_t first_solve) const {
   if (first_solve < timings_.solves.size())
     t.solves.assign(timings_.solves.begin() + static_cast<std::ptrdiff_t>(first_solve), timings_.solves.end());
   t.loop_correction_ms = timings_.loop_correction_ms;
+  t.loop_correction_cpu_ms = timings_.loop_correction_cpu_ms;
   return t;
 }
 

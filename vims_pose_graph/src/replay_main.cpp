@@ -210,7 +210,8 @@ int main(int argc, char** argv) {
       const PoseGraphTimings timings = manager.timings();
       std::ofstream csv((fs::path(out_dir) / "optimisations.csv").string());
       csv << "trigger,t_keyframe,solve_ms,solve_cpu_ms,nodes,free_nodes,loops,yaw_factors,iterations,stages,stage_iterations,"
-             "build_ms,ceres_ms,preprocessor_ms,linear_solver_ms,jacobian_ms,initial_cost,final_cost\n";
+             "build_ms,ceres_ms,preprocessor_ms,linear_solver_ms,jacobian_ms,initial_cost,final_cost,max_new_loop_sigmas,"
+             "local_loop_solve\n";
       std::vector<double> solve_ms, cpu_ms;
       double total_ms = 0.0, total_cpu_ms = 0.0;
       for (const OptimisationRecord& o : timings.solves) {
@@ -229,7 +230,8 @@ int main(int argc, char** argv) {
             << "," << o.solve_cpu_ms << "," << r.num_nodes << "," << r.num_free_nodes << "," << r.num_loop_edges << "," << r.num_yaw_factors
             << "," << r.iterations << "," << r.stages.size() << "," << stage_iterations << "," << 1e3 * build << ","
             << 1e3 * ceres_total << "," << 1e3 * preprocessor << "," << 1e3 * linear << "," << 1e3 * jacobian << "," << std::setprecision(6) << r.initial_cost << ","
-            << r.final_cost << "\n";
+            << r.final_cost << "," << std::setprecision(3) << o.max_new_loop_sigmas << "," << (o.local_loop_solve ? 1 : 0)
+            << "\n";
         solve_ms.push_back(o.solve_ms);
         cpu_ms.push_back(o.solve_cpu_ms);
         total_ms += o.solve_ms;
@@ -247,7 +249,9 @@ int main(int argc, char** argv) {
                 << " ms, total " << std::setprecision(2) << 1e-3 * total_cpu_ms << " s); loop correction (" << timings.loop_correction_ms.size() << " loops): p50 "
                 << std::setprecision(1) << pct(timings.loop_correction_ms, 0.5) << " ms, p99 "
                 << pct(timings.loop_correction_ms, 0.99) << " ms, max " << pct(timings.loop_correction_ms, 1.0)
-                << " ms\n";
+                << " ms (CPU: p50 " << pct(timings.loop_correction_cpu_ms, 0.5) << " ms, p99 "
+                << pct(timings.loop_correction_cpu_ms, 0.99) << " ms, max " << pct(timings.loop_correction_cpu_ms, 1.0)
+                << " ms)\n";
     }
     if (!diagnose) return 0;
 
@@ -259,7 +263,8 @@ int main(int argc, char** argv) {
                                 options.loop.submap_include_tracked_corners);
     describer.setDenseCorners(options.loop.submap_dense_corners, options.loop.submap_corner_min_distance_px,
                               options.loop.submap_corner_max_level);
-    LoopVerifier verifier(options.loop, cam);
+    describer.setDenseCornersPerLevel(options.loop.submap_dense_corners_per_level);
+    LoopVerifier verifier(options.loop, cam, options.featureOptions());
 
     // Landmark accuracy: each landmark of keyframe k, placed in k's camera by the VIO, projected
     // with the ground-truth relative pose into a later keyframe that tracks the same feature id.
@@ -360,6 +365,14 @@ int main(int argc, char** argv) {
           if (kp.data.session != kq.data.session) break;
           mergeDescribedPoints(&query.points, describer.describePoints(kp.data.image, kp.data.features));
         }
+        // The query's own seabed corners, as the manager gives them (the verifier decides when).
+        if (options.loop.query_seabed_corners > 0) {
+          DescribedPoints own = describer.describePoints(kq.data.image, kq.data.features);
+          query.seabed_points = describer.describeSeabedCorners(kq.data.image, own, kq.data.T_odom_b * T_b_c,
+                                                                options.loop.query_seabed_corners,
+                                                                options.loop.submap_corner_min_distance_px,
+                                                                options.loop.submap_corner_max_level);
+        }
 
         // Ground truth: query camera -> candidate camera; the query's points in its camera (VIO).
         const Eigen::Isometry3d T_cc_cq = (kc.T_w_b_gt * T_b_c).inverse() * (kq.T_w_b_gt * T_b_c);
@@ -395,7 +408,7 @@ int main(int argc, char** argv) {
         }
         const std::vector<PointMatch> matches =
             matchPointsToKeypoints(query.points, sub, options.loop.match_ratio, options.loop.match_max_distance,
-                                   options.loop.match_duplicate_radius_px, options.loop.match_max_level_difference);
+                                   options.loop.match_duplicate_radius_px, verifier.levelWindow(query, map, cn->second));
         int epi_ok = 0, reproj_ok = 0;
         std::vector<double> reproj_epi_ok;
         for (const PointMatch& m : matches) {

@@ -198,7 +198,9 @@ TEST(PoseGraphManager, ClosesLoopsAndCorrectsDrift) {
   EXPECT_EQ(st.yaw_factors, run.keyframes.size());
   const std::vector<LoopAttempt> attempts = m.loopAttempts();
   expectAcceptedLoopsCorrect(attempts, run, run);
-  for (const LoopAttempt& a : attempts) EXPECT_FALSE(std::isnan(a.mag_distance) && a.stage != LoopStage::kBow);
+  // Every candidate of the hierarchy passed the magnetic stage (pose-graph candidates need not).
+  for (const LoopAttempt& a : attempts)
+    EXPECT_FALSE(std::isnan(a.mag_distance) && a.stage != LoopStage::kBow && !a.proximity);
 
   // Global poses: the yaw factors make the heading absolute (ENU); the position is anchored at
   // the first keyframe. The VIO's drift is corrected.
@@ -585,6 +587,86 @@ TEST(PoseGraphManager, PartialSolvesAgreeWithFullSolvesAndAreTimed) {
   for (const OptimisationRecord& r : full.timings().solves) EXPECT_EQ(r.report.num_free_nodes, r.report.num_nodes);
   // Incremental reads return only the newer solves.
   EXPECT_EQ(partial.timings(t.solves.size() - 1).solves.size(), 1u);
+}
+
+TEST(PoseGraphManager, LocalLoopSolvesDeferTheSolveFromTheEarliestNodeAndReachTheSameMap) {
+  // Local loop solves (PoseGraphOptions::loop_local_solve_max_sigmas): each loop's correction
+  // frees only the newest window (the match side held); the solve from its earliest node follows
+  // within optimise_every_n_keyframes keyframes, covering every loop deferred since. The map
+  // must end where solving every loop from its earliest node at once leaves it.
+  const SimRun& run = runA();
+  PoseGraphManagerOptions o = testOptions();
+  o.graph.window_keyframes = 6;
+  o.graph.loop_local_solve_max_sigmas = 1e6;  // every loop is local
+  PoseGraphManager local(o, test::testSequence(), vocabularyFor(o));
+  feed(local, run);
+  o.graph.loop_local_solve_max_sigmas = 0.0;  // off: every loop solved from its earliest node
+  PoseGraphManager immediate(o, test::testSequence(), vocabularyFor(o));
+  feed(immediate, run);
+
+  const PoseGraphManagerStats st = local.stats();
+  ASSERT_GE(st.loops_accepted, 3u);
+  EXPECT_EQ(st.loops_accepted, immediate.stats().loops_accepted);
+  const PoseGraphTimings t = local.timings();
+  EXPECT_EQ(t.loop_correction_ms.size(), st.loops_accepted);
+  EXPECT_EQ(t.loop_correction_cpu_ms.size(), st.loops_accepted);  // synchronous mode
+  for (double ms : t.loop_correction_cpu_ms) EXPECT_GE(ms, 0.0);
+
+  // The i-th loop solve corrects the i-th loop (synchronous mode). A local one frees at most the
+  // window (the query is among the newest keyframes) and holds the match. The next non-local
+  // solve (deferred, a loop solve once the deferred one is due, or the end of data) comes within
+  // 5 keyframes (1 s apart) and frees the loop's earliest node.
+  const std::vector<LoopEdgeInfo> loops = local.loopEdges();
+  ASSERT_EQ(loops.size(), st.loops_accepted);
+  size_t loop_index = 0, local_solves = 0, deferred_solves = 0;
+  for (size_t i = 0; i < t.solves.size(); ++i) {
+    const OptimisationRecord& r = t.solves[i];
+    if (r.trigger == OptimisationTrigger::kDeferredLoops) ++deferred_solves;
+    if (r.trigger != OptimisationTrigger::kLoop) continue;
+    ASSERT_LT(loop_index, loops.size());
+    const LoopEdgeInfo& loop = loops[loop_index++];
+    const size_t earliest = std::min(loop.match, loop.query);
+    EXPECT_LE(r.max_new_loop_sigmas, 1e6);
+    if (!r.local_loop_solve) {
+      EXPECT_GE(r.report.num_free_nodes, r.report.num_nodes - earliest) << "loop " << loop.id;
+      continue;
+    }
+    ++local_solves;
+    EXPECT_LE(r.report.num_free_nodes, 6u) << "loop " << loop.id;
+    EXPECT_LT(earliest + r.report.num_free_nodes, r.report.num_nodes) << "loop " << loop.id << ": match side held";
+    bool covered = false;
+    for (size_t j = i + 1; j < t.solves.size() && !covered; ++j) {
+      const OptimisationRecord& d = t.solves[j];
+      if (d.local_loop_solve || d.trigger == OptimisationTrigger::kPeriodic) continue;
+      EXPECT_LE(d.t_keyframe - r.t_keyframe, 5.0 + 1e-6) << "loop " << loop.id << ": deferred solve too late";
+      EXPECT_GE(d.report.num_free_nodes, d.report.num_nodes - earliest)
+          << "loop " << loop.id << ": the deferred solve must free its earliest node";
+      covered = true;
+    }
+    EXPECT_TRUE(covered) << "loop " << loop.id << " never got its solve from the earliest node";
+  }
+  EXPECT_EQ(loop_index, st.loops_accepted);
+  EXPECT_GE(local_solves, 2u);
+  EXPECT_GE(deferred_solves, 1u);
+  for (const OptimisationRecord& r : immediate.timings().solves) {
+    EXPECT_FALSE(r.local_loop_solve);
+    EXPECT_NE(r.trigger, OptimisationTrigger::kDeferredLoops);
+  }
+
+  // Same map: the deferred solves converge to the optimum of the same graph.
+  const std::vector<KeyframePose> a = local.keyframePoses();
+  const std::vector<KeyframePose> b = immediate.keyframePoses();
+  ASSERT_EQ(a.size(), b.size());
+  double worst_m = 0.0, worst_deg = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    worst_m = std::max(worst_m, (a[i].T_w_b.translation() - b[i].T_w_b.translation()).norm());
+    worst_deg = std::max(worst_deg, Eigen::AngleAxisd(a[i].T_w_b.linear().transpose() * b[i].T_w_b.linear()).angle() / kDeg);
+  }
+  std::cout << "[ INFO     ] local + deferred vs immediate loop solves: " << deferred_solves << " deferred solves; max "
+            << worst_m << " m, " << worst_deg << " deg apart" << std::endl;
+  EXPECT_LT(worst_m, 0.01);
+  EXPECT_LT(worst_deg, 0.1);
+  expectAcceptedLoopsCorrect(local.loopAttempts(), run, run);
 }
 
 TEST(PoseGraphManager, AsynchronousModeFindsTheSameLoops) {

@@ -100,6 +100,25 @@ class KeyframeDescriber {
   /// Dense corners of describeKeyframe's submap (see LoopDetectorOptions::submap_dense_corners);
   /// off (0) unless set. ORB only (BRIEF, the baseline, keeps its single-scale detected corners).
   void setDenseCorners(int max_corners, double min_distance_px, int max_level);
+  /// Detect the dense corners on every pyramid level 0..max_level (up to max_corners / s^(2l)
+  /// on level l, described on that level only) instead of on level 0 replicated to the levels
+  /// above (LoopDetectorOptions::submap_dense_corners_per_level).
+  void setDenseCornersPerLevel(bool per_level) { dense_per_level_ = per_level; }
+
+  /// The query's seabed corners (LoopDetectorOptions::query_seabed_corners): Shi-Tomasi corners
+  /// detected on pyramid levels 1..max_level of the keyframe image (up to max_corners on level 1,
+  /// fewer by the area on the coarser ones, min_distance_px apart on their level), each
+  /// described on its own level, with a 3D position from the VIO's tracked points: the inverse
+  /// depth of the seabed is locally a plane in normalised coordinates (1/z = a x + b y + c for
+  /// a plane), fitted to the kNeighbours tracked points nearest in the image and evaluated on
+  /// the corner's ray. Corners whose fit is degenerate or whose depth leaves the neighbours'
+  /// range by more than half of it are dropped. Feature ids have the top bit set (never a VIO
+  /// track id). `tracked`: the keyframe's described points (p_odom), T_odom_c: its camera pose in
+  /// the VIO frame. Empty with fewer than kNeighbours tracked points in front of the camera.
+  DescribedPoints describeSeabedCorners(const cv::Mat& image, const DescribedPoints& tracked,
+                                        const Eigen::Isometry3d& T_odom_c, int max_corners, double min_distance_px,
+                                        int max_level);
+  static constexpr int kNeighbours = 8;
 
   const FeatureExtractionOptions& featureOptions() const { return features_; }
 
@@ -107,6 +126,13 @@ class KeyframeDescriber {
   /// The ORB pyramid (level l = level l-1 resized by 1/scale with INTER_LINEAR_EXACT, the sizes
   /// cv::ORB uses).
   std::vector<cv::Mat> buildPyramid(const cv::Mat& image) const;
+  /// describePoints on pyramid levels min_level..max_level only.
+  DescribedPoints describePointsOnLevels(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
+                                         int min_level, int max_level);
+  /// Shi-Tomasi corners (block 3, 0.1 % quality) of pyramid level `level`, at most max_corners
+  /// min_distance_px apart on that level, in level-0 pixels.
+  std::vector<cv::Point2f> cornersOnLevel(const std::vector<cv::Mat>& pyramid, int level, int max_corners,
+                                          double min_distance_px) const;
 
   FeatureExtractionOptions features_;
   double harris_threshold_;
@@ -114,6 +140,7 @@ class KeyframeDescriber {
   int dense_corners_ = 0;
   double dense_min_distance_px_ = 4.0;
   int dense_max_level_ = 3;
+  bool dense_per_level_ = false;
   CameraCalibration camera_;
   FeatureExtractor extractor_;
   cv::Ptr<cv::ORB> orb_;  ///< computes descriptors at given keypoints (same settings as the extractor)

@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -48,6 +49,9 @@ struct LoopAttempt {
   double mag_distance = std::numeric_limits<double>::quiet_NaN();  ///< |s_q - s_i| [T]; NaN: no magnetic stage
   double bow_score = std::numeric_limits<double>::quiet_NaN();     ///< NaN: not scored
   LoopStage stage = LoopStage::kMagnetic;
+  /// The candidate came from the pose graph's estimate (LoopDetectorOptions::proximity_candidates),
+  /// not from the magnetic and BoW stages.
+  bool proximity = false;
 };
 
 /// A keyframe asking for a loop.
@@ -57,6 +61,10 @@ struct LoopQuery {
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();
   BowVector bow;             ///< of the query image's visual submap
   DescribedPoints points;    ///< tracked 3D points (VIO frame of the query's session)
+  /// The query keyframe's seabed corners (KeyframeDescriber::describeSeabedCorners), matched in
+  /// addition to `points` against candidates seen from higher up
+  /// (LoopDetectorOptions::query_seabed_min_level_shift).
+  DescribedPoints seabed_points;
   /// The query's magnetic signature (ENU amplitude, tesla) when a valid one is near its time.
   std::optional<Eigen::Vector3d> signature_enu;
 };
@@ -69,6 +77,9 @@ struct VerificationResult {
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   bool has_pose = false;
   int covisibility_confirming_neighbours = 0;
+  /// Angle between the candidate camera's gravity direction from the PnP pose and from its VIO
+  /// attitude [deg] (NaN until computed; LoopDetectorOptions::pnp_max_tilt_error_deg).
+  double tilt_error_deg = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::pair<uint32_t, uint32_t>> inlier_matches;  ///< (query point, candidate keypoint)
 };
 
@@ -78,6 +89,31 @@ struct PointMatch {
   uint32_t keypoint = 0;  ///< candidate keypoint
   int distance = 0;       ///< Hamming distance (best over the point's descriptors)
 };
+
+/// Which candidate keypoint octaves a query descriptor of pyramid level l is compared with:
+/// |octave - (l + shift)| <= tolerance; a negative tolerance compares all levels.
+struct LevelWindow {
+  double shift = 0.0;
+  double tolerance = -1.0;
+
+  /// +-max_level_difference around the descriptor's own level (-1: all levels).
+  static LevelWindow around(int max_level_difference) {
+    return LevelWindow{0.0, max_level_difference < 0 ? -1.0 : static_cast<double>(max_level_difference)};
+  }
+  bool admits(int level, int octave) const {
+    return tolerance < 0.0 || std::abs(static_cast<double>(octave - level) - shift) <= tolerance + 1e-9;
+  }
+};
+
+/// The pyramid-level offset at which a feature seen at depth `depth_query` appears in an image
+/// taken at depth `depth_candidate`: log(depth_query / depth_candidate) / log(scale_factor)
+/// (a patch of 31 s^l px at depth d_q covers 31 s^l d_q / d_c px at depth d_c). NaN when a
+/// depth is not positive or the scale factor is not above 1.
+double altitudeLevelShift(double depth_query, double depth_candidate, double scale_factor);
+
+/// Median depth (camera z) of the query's 3D points in the query camera (T_odom_b T_b_c); NaN
+/// without a point in front of the camera.
+double medianQueryDepth(const DescribedPoints& points, const Eigen::Isometry3d& T_odom_c);
 
 /// 3D-2D descriptor matching with the 2-nearest-neighbour ratio test: for each query point, the
 /// best candidate keypoint (distance = minimum over the point's replicated descriptors whose
@@ -89,25 +125,39 @@ struct PointMatch {
 std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, const VisualSubmap& candidate,
                                                double ratio, int max_distance, double duplicate_radius_px,
                                                int max_level_difference = -1);
+/// The same with an explicit level window (LevelWindow::around(d) gives the overload above).
+std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, const VisualSubmap& candidate,
+                                               double ratio, int max_distance, double duplicate_radius_px,
+                                               const LevelWindow& levels);
 
 /// Stateless verifier (matching, PnP, covisibility) against a map.
 class LoopVerifier {
  public:
-  LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera);
+  /// `features`: the descriptor settings of the map (the pyramid scale factor predicts levels
+  /// across altitudes, see LoopDetectorOptions::match_level_from_altitude; ORB only).
+  LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera,
+               const FeatureExtractionOptions& features = FeatureExtractionOptions());
 
   /// Verifies `query` against map keyframe `candidate` (which must have a visual submap).
   VerificationResult verify(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate) const;
 
   const LoopDetectorOptions& options() const { return options_; }
+  /// The levels a query descriptor is compared with in `candidate` (and its covisibility
+  /// neighbours): predicted from the two camera altitudes when match_level_from_altitude is on,
+  /// the descriptor is ORB, and query and candidate share a connected component (comparable
+  /// world heights) and the query has a depth; else +-match_max_level_difference.
+  LevelWindow levelWindow(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate) const;
 
  private:
   /// Checks the match's neighbours; returns the number of confirming neighbours.
-  int covisibleNeighbours(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId match,
+  int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
                           const Eigen::Isometry3d& T_bm_odomq,
-                          const std::vector<std::pair<uint32_t, uint32_t>>& inliers) const;
+                          const std::vector<std::pair<uint32_t, uint32_t>>& inliers,
+                          const LevelWindow& levels) const;
 
   LoopDetectorOptions options_;
   CameraCalibration camera_;
+  FeatureExtractionOptions features_;
   Eigen::Isometry3d T_b_c_;
   Eigen::Isometry3d T_c_b_;
 };
@@ -120,6 +170,8 @@ struct DetectionResult {
   std::vector<std::pair<uint32_t, double>> magnetic_candidates;  ///< (submap id, distance [T])
   std::vector<PoseGraphNodeId> bow_pool;                         ///< keyframes BoW was allowed to score
   std::vector<std::pair<PoseGraphNodeId, double>> bow_candidates; ///< verified, in order (node, score)
+  /// Verified after the BoW candidates (LoopDetectorOptions::proximity_candidates), nearest first.
+  std::vector<PoseGraphNodeId> proximity_candidates;
 };
 
 /// The loop candidates' exclusion: true when `candidate` is a keyframe of the current run (not
@@ -133,7 +185,8 @@ class HierarchicalLoopDetector {
  public:
   /// Throws std::invalid_argument for invalid options.
   HierarchicalLoopDetector(const LoopDetectorOptions& options, const MagneticSubmapOptions& magnetic_options,
-                           const ModeSettings& mode, const CameraCalibration& camera, LoggerPtr logger = nullptr);
+                           const ModeSettings& mode, const CameraCalibration& camera, LoggerPtr logger = nullptr,
+                           const FeatureExtractionOptions& features = FeatureExtractionOptions());
 
   /// Runs the hierarchy for `query` over `map`. Candidates are keyframes with a visual submap
   /// other than the query, not recent (see isRecent). A query without BoW vector or with fewer
@@ -143,6 +196,11 @@ class HierarchicalLoopDetector {
   /// True for keyframes of the current run (not loaded) within exclude_recent_keyframes
   /// keyframes or exclude_recent_s seconds of the query (isRecentKeyframe).
   bool isRecent(const MultiScaleMap& map, PoseGraphNodeId query, PoseGraphNodeId candidate) const;
+  /// Up to proximity_candidates keyframes with a visual submap, not recent, in the query's
+  /// component, whose world position is within proximity_radius_m horizontally of the query's
+  /// current world position, nearest first, except those in `exclude` (already verified).
+  std::vector<PoseGraphNodeId> proximityCandidates(const LoopQuery& query, const MultiScaleMap& map,
+                                                   const std::vector<PoseGraphNodeId>& exclude = {}) const;
 
   const LoopVerifier& verifier() const { return verifier_; }
   const ModeSettings& mode() const { return mode_; }

@@ -86,6 +86,15 @@ struct PoseGraphOptions {
   /// Periodic solves (no new loop; the yaw factors of the newest keyframes): only the newest
   /// this many keyframes of the run, the older ones held; 0 = the whole graph.
   int window_keyframes = 100;
+  /// Local loop solves (docs/pose_graph.md, "Local loop solves"): when every new loop starts
+  /// within this many sigmas of its measurement (whitened residual at the current poses: the map
+  /// already agrees with it, as for the later loops of a burst at one revisit), the solve after
+  /// it frees only the newest `window_keyframes` keyframes and the loops' query nodes (the match
+  /// side is held) -- the loop correction -- and the solve from the loops' earliest node is
+  /// deferred: it runs once for all loops deferred since, when the oldest of them is
+  /// PoseGraphManagerOptions::optimise_every_n_keyframes keyframes old, or with the next loop
+  /// that is not local, or at the end of data. 0 (or window_keyframes 0) = off.
+  double loop_local_solve_max_sigmas = 3.0;
 
   /// Keys as the field names, with `_deg` instead of `_rad` for angles. Unknown keys and
   /// out-of-range values throw ConfigError naming the key.

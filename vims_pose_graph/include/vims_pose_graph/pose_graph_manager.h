@@ -101,8 +101,9 @@ struct PoseGraphManagerStats {
   bool relocalised = false;
 };
 
-/// Why the manager optimised.
-enum class OptimisationTrigger { kLoop, kPeriodic, kFinish };
+/// Why the manager optimised. kDeferredLoops: the solve from the earliest node of the loops that
+/// local loop solves corrected (PoseGraphOptions::loop_local_solve_max_sigmas).
+enum class OptimisationTrigger { kLoop, kPeriodic, kDeferredLoops, kFinish };
 std::string toString(OptimisationTrigger trigger);
 
 /// One solve of one component (benchmarks, replay; docs/pose_graph.md, "Cost of the optimisation").
@@ -111,6 +112,10 @@ struct OptimisationRecord {
   double t_keyframe = 0.0;    ///< time of the newest keyframe when it ran
   double solve_ms = 0.0;      ///< PoseGraph4Dof::solve, wall clock
   double solve_cpu_ms = 0.0;  ///< its CPU time on the calling thread (Ceres runs num_threads = 1 by default)
+  /// After new loops: the largest whitened residual [sigmas] of those loops at the poses the
+  /// solve started from, and whether it was a local loop solve (see PoseGraphOptions).
+  double max_new_loop_sigmas = 0.0;
+  bool local_loop_solve = false;
   PoseGraphReport report;     ///< without loop residuals
 };
 
@@ -120,6 +125,9 @@ struct PoseGraphTimings {
   /// Per accepted loop: wall time from its acceptance to the applied result of the first
   /// optimisation that included it [ms] (the loop correction latency).
   std::vector<double> loop_correction_ms;
+  /// The same in CPU time of the thread that accepted the loop and solved [ms]: synchronous mode
+  /// only (empty otherwise), where it is not inflated by other jobs on the machine.
+  std::vector<double> loop_correction_cpu_ms;
 };
 
 class PoseGraphManager {
@@ -202,6 +210,9 @@ class PoseGraphManager {
     double t = 0.0;
     BowVector bow;
     DescribedPoints points;
+    /// The query's own seabed corners (LoopDetectorOptions::query_seabed_corners): added to its
+    /// query only, not to the local map of later queries.
+    DescribedPoints seabed_points;
     bool has_visual = false;
   };
   struct StoredWindow {
@@ -211,7 +222,8 @@ class PoseGraphManager {
   };
 
   // Handlers (state lock held).
-  void handleKeyframe(const KeyframeData& keyframe, VisualSubmap submap, DescribedPoints points);
+  void handleKeyframe(const KeyframeData& keyframe, VisualSubmap submap, DescribedPoints points,
+                      DescribedPoints seabed_points);
   /// Whether a keyframe about to become node `new_node` at world position p_w_b, joining the
   /// component of node `component_node`, would only repeat a visual submap already in the map
   /// (LoopDetectorOptions::redundant_submap_radius_m).
@@ -230,16 +242,27 @@ class PoseGraphManager {
   /// Synchronous: solves the reference component and, if different, the current run's
   /// component now. Asynchronous: wakes the optimiser thread (requests during a solve merge).
   void requestOptimisation(OptimisationTrigger trigger);
+  /// One solve: snapshots of the components to optimise and which waiting loops it covers.
+  struct SolvePlan {
+    std::vector<ComponentSnapshot> snapshots;
+    size_t loops_included = 0;     ///< the first this many of loops_awaiting_correction_
+    bool local = false;            ///< a local loop solve: those loops then await the deferred solve
+    size_t deferred_included = 0;  ///< the first this many of loops_awaiting_deferred_solve_
+    double max_new_loop_sigmas = 0.0;
+  };
+  /// Whether the loops corrected by local loop solves are due for their deferred solve.
+  bool deferredSolveDue() const;
   /// Snapshots of the components to optimise (reference component, and the run's if separate),
-  /// with the part to optimise for this trigger (docs/pose_graph.md, "Cost of the optimisation").
-  std::vector<ComponentSnapshot> takeSnapshots(OptimisationTrigger trigger) const;
+  /// with the part to optimise for this trigger and state (docs/pose_graph.md, "Cost of the
+  /// optimisation", "Local loop solves").
+  SolvePlan planSolve(OptimisationTrigger trigger) const;
   /// Solves the snapshots and records their timing (no lock needed).
   std::vector<PoseGraphSolution> solveSnapshots(const std::vector<ComponentSnapshot>& snapshots,
                                                 OptimisationTrigger trigger, double t_keyframe,
                                                 std::vector<OptimisationRecord>* records) const;
   /// Applies solutions and records the loop correction latency of the loops they include.
-  void applySolutions(const std::vector<ComponentSnapshot>& snapshots, const std::vector<PoseGraphSolution>& solutions,
-                      std::vector<OptimisationRecord> records, size_t loops_included);
+  void applySolutions(const SolvePlan& plan, const std::vector<PoseGraphSolution>& solutions,
+                      std::vector<OptimisationRecord> records);
 
   // Threads.
   void processingLoop();
@@ -289,10 +312,15 @@ class PoseGraphManager {
   /// Loops no applied optimisation has included yet, oldest first.
   struct AwaitingLoop {
     std::chrono::steady_clock::time_point accepted;
+    double accepted_cpu_s;          ///< thread CPU time at acceptance (synchronous mode)
     LoopEdgeId id;
     PoseGraphNodeId earliest_node;  ///< min(match, query)
+    PoseGraphNodeId latest_node;    ///< max(match, query)
+    size_t run_keyframes;           ///< run_nodes_.size() at acceptance
   };
   std::deque<AwaitingLoop> loops_awaiting_correction_;
+  /// Loops corrected by a local loop solve whose solve from their earliest node is deferred.
+  std::deque<AwaitingLoop> loops_awaiting_deferred_solve_;
 
   // ---- asynchronous mode (queue_mutex_)
   mutable std::mutex queue_mutex_;
