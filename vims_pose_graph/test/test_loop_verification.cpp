@@ -94,6 +94,21 @@ struct PassMap {
   std::vector<Eigen::Isometry3d> poses;
 };
 
+/// A copy of `pass`'s keyframes (same visual submaps) whose VIO poses `edit` changes, keyframe i
+/// by keyframe i: a map whose poses disagree with its images.
+template <typename Edit>
+PassMap withEditedPoses(const test::TestWorld& world, const PassMap& pass, Edit edit) {
+  PassMap edited(world, DescriptorType::kOrb, 0.0, 0.0, 0);
+  const uint32_t session = edited.map.addSession(0, false);
+  for (size_t i = 0; i < pass.poses.size(); ++i) {
+    Eigen::Isometry3d T_odom_b = pass.poses[i];
+    edit(static_cast<int>(i), &T_odom_b);
+    edited.map.addNode(static_cast<double>(i), session, T_odom_b, T_odom_b.translation(), 0.0,
+                       pass.map.node(static_cast<PoseGraphNodeId>(i)).visual, true);
+  }
+  return edited;
+}
+
 /// A body pose whose camera (0.25 m ahead of the body) is over `camera_xy`, turned by `heading_deg`.
 Eigen::Isometry3d poseWithCameraAt(const Eigen::Vector2d& camera_xy, double z, double heading_deg, double pitch_deg = 0.0,
                                    double roll_deg = 0.0) {
@@ -309,13 +324,10 @@ TEST(LoopVerification, CovisibilityRejectsAPoseTheNeighboursContradict) {
   ASSERT_EQ(good.stage, LoopStage::kAccepted);
   EXPECT_GE(good.covisibility_confirming_neighbours, 2);
 
-  PassMap shifted(world, DescriptorType::kOrb, 0.0, 0.0, 0);
-  const uint32_t s = shifted.map.addSession(0, false);
-  for (int i = 0; i < 7; ++i) {
-    Eigen::Isometry3d T_odom_b = pass.poses[static_cast<size_t>(i)];
-    if (i != 3) T_odom_b.translation().y() += 1.5;  // the neighbours' VIO poses disagree with their images
-    shifted.map.addNode(i, s, T_odom_b, T_odom_b.translation(), 0.0, pass.map.node(static_cast<PoseGraphNodeId>(i)).visual, true);
-  }
+  // The neighbours' VIO poses disagree with their images.
+  PassMap shifted = withEditedPoses(world, pass, [](int i, Eigen::Isometry3d* T_odom_b) {
+    if (i != 3) T_odom_b->translation().y() += 1.5;
+  });
   const LoopQuery q2 = shifted.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
   const VerificationResult bad = verifier.verify(q2, shifted.map, 3);
   EXPECT_EQ(bad.stage, LoopStage::kCovisibility) << "good: " << good.num_matches << "/" << good.num_inliers
@@ -337,14 +349,9 @@ TEST(LoopVerification, PnpPoseTiltedAgainstTheVioAttitudeIsRejected) {
   ASSERT_EQ(good.stage, LoopStage::kAccepted);
   EXPECT_LT(good.tilt_error_deg, 0.5);
 
-  PassMap tilted(world, DescriptorType::kOrb, 0.0, 0.0, 0);
-  const uint32_t s = tilted.map.addSession(0, false);
-  for (int i = 0; i < 7; ++i) {
-    Eigen::Isometry3d T_odom_b = pass.poses[static_cast<size_t>(i)];
-    if (i == 3) T_odom_b.linear() = T_odom_b.linear() * Eigen::AngleAxisd(4.0 * kDeg, Eigen::Vector3d::UnitX()).matrix();
-    tilted.map.addNode(i, s, T_odom_b, T_odom_b.translation(), 0.0, pass.map.node(static_cast<PoseGraphNodeId>(i)).visual,
-                       true);
-  }
+  PassMap tilted = withEditedPoses(world, pass, [](int i, Eigen::Isometry3d* T_odom_b) {
+    if (i == 3) T_odom_b->linear() = T_odom_b->linear() * Eigen::AngleAxisd(4.0 * kDeg, Eigen::Vector3d::UnitX()).matrix();
+  });
   const LoopQuery q2 = tilted.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
   const VerificationResult bad = LoopVerifier(o, world.camera()).verify(q2, tilted.map, 3);
   EXPECT_EQ(bad.stage, LoopStage::kPnp);
