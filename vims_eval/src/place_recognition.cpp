@@ -307,11 +307,15 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
     return y < x && x - y >= static_cast<PoseGraphNodeId>(options.loop.exclude_recent_keyframes) &&
            t[x] - t[y] >= options.loop.exclude_recent_s;
   };
-  // Magnetic submaps: which keyframes each clusters (the library's rule), computed once.
+  // Magnetic submaps: which keyframes each clusters (the library's rule), computed once. Culled
+  // keyframes (redundant submaps, docs/pose_graph.md) are not loop candidates of the running
+  // system but keep their BoW vector; every method scores every keyframe pair, so they are
+  // clustered here too.
   const auto& submaps = map.magneticSubmaps();
   std::vector<std::vector<PoseGraphNodeId>> clustered(submaps.size());
   for (std::size_t s = 0; s < submaps.size(); ++s)
-    clustered[s] = map.clusteredNodes(submaps[s], options.magnetic.cluster_margin_m);
+    clustered[s] = map.clusteredNodes(submaps[s], options.magnetic.cluster_margin_m,
+                                      MultiScaleMap::ClusterMembers::kBowVectors);
 
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<uint8_t> truth;
@@ -349,7 +353,7 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
       truth.push_back((*p_gt[x] - *p_gt[y]).norm() < options.true_match_radius_m ? 1 : 0);
       const float orb_score = static_cast<float>(bowScoreL1(orb_x, map.node(y).visual.bow));
       s_orb.push_back(orb_score);
-      s_magorb.push_back(in_pool[y] && map.node(y).bow_image >= 0 ? orb_score : kNever);
+      s_magorb.push_back(in_pool[y] && !map.node(y).visual.bow.empty() ? orb_score : kNever);
       s_brief.push_back(bow_brief[x] && bow_brief[y] ? static_cast<float>(bowScoreL1(*bow_brief[x], *bow_brief[y]))
                                                      : 0.0f);
       if (sig[x] && sig[y] && sig[y]->norm() > 0.0)

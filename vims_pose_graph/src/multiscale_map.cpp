@@ -355,14 +355,16 @@ Eigen::Vector3d MultiScaleMap::magneticSubmapPosition(const MagneticSubmap& subm
   return nodes_.at(submap.tied_node).pose.p_w_b;
 }
 
-std::vector<PoseGraphNodeId> MultiScaleMap::clusteredNodes(const MagneticSubmap& submap, double cluster_margin_m) const {
+std::vector<PoseGraphNodeId> MultiScaleMap::clusteredNodes(const MagneticSubmap& submap, double cluster_margin_m,
+                                                           ClusterMembers members) const {
   std::vector<PoseGraphNodeId> out;
   const Eigen::Vector2d centre = magneticSubmapPosition(submap).head<2>();
   const uint32_t component = componentOf(submap.tied_node);
   const double reach = submap.radius_m + cluster_margin_m;
   for (PoseGraphNodeId i = 0; i < nodes_.size(); ++i) {
     const MapNode& n = nodes_[i];
-    if (n.bow_image < 0 || findSession(n.session) != component) continue;
+    const bool member = members == ClusterMembers::kVisualSubmaps ? n.bow_image >= 0 : !n.visual.bow.empty();
+    if (!member || findSession(n.session) != component) continue;
     if ((n.pose.p_w_b.head<2>() - centre).norm() <= reach) out.push_back(i);
   }
   return out;

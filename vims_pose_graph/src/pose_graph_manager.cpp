@@ -483,12 +483,17 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   BowVector bow = submap.bow;
   // Re-flying a mapped place: the node, its edges and yaw factor are added and the keyframe
   // still queries (with its own described points and BoW vector, kept in `pending` below), but
-  // its visual submap is not stored. The run's first keyframe has no component to compare with
-  // (a loaded map is in another one until relocalisation).
+  // its keypoints and descriptors are not stored and it is not a loop candidate (no entry in
+  // the BoW database). Its BoW vector (~5 KB against ~200 KB for a whole submap) stays in the
+  // node, so that place recognition can be evaluated on every keyframe of a run with the
+  // default culling (vims_eval place-recognition). The run's first keyframe has no component
+  // to compare with (a loaded map is in another one until relocalisation).
   const bool culled = has_visual && has_previous &&
                       submapIsRedundant(static_cast<PoseGraphNodeId>(map_.numNodes()), kf.t, p_w_b, previous);
   if (culled) {
-    submap = VisualSubmap();
+    VisualSubmap bow_only;
+    bow_only.bow = submap.bow;
+    submap = std::move(bow_only);
     ++stats_.culled_submaps;
   }
   const PoseGraphNodeId id = map_.addNode(kf.t, session, kf.T_odom_b, p_w_b, yaw_w_b, std::move(submap), false);

@@ -432,13 +432,35 @@ TEST(PoseGraphManager, RedundantSubmapsOfAReflownPlaceAreNotStoredAndTheirQuerie
     for (PoseGraphNodeId i = 0; i < map.numNodes(); ++i) {
       if (!map.node(i).visual.empty()) continue;
       EXPECT_LT(map.node(i).bow_image, 0);
+      // A culled keyframe keeps its BoW vector only (place-recognition evaluation).
+      EXPECT_FALSE(map.node(i).visual.bow.empty()) << "node " << i;
+      EXPECT_TRUE(map.node(i).visual.descriptors.empty() && map.node(i).visual.normalized.empty());
       culled.insert(i);
       ++culled_per_pass[pass[i]];
     }
     // Every magnetic submap still clusters a visual submap (culled places are within the
-    // culling radius, below the cluster margin, of a kept one).
-    for (const MagneticSubmap& s : map.magneticSubmaps())
-      EXPECT_FALSE(map.clusteredNodes(s, o.magnetic.cluster_margin_m).empty()) << "submap " << s.id;
+    // culling radius, below the cluster margin, of a kept one). Loop candidates are never culled
+    // keyframes; the evaluation's clustering (BoW vectors) adds the culled ones nearby.
+    size_t culled_clustered = 0;
+    for (const MagneticSubmap& s : map.magneticSubmaps()) {
+      const auto candidates = map.clusteredNodes(s, o.magnetic.cluster_margin_m);
+      EXPECT_FALSE(candidates.empty()) << "submap " << s.id;
+      for (PoseGraphNodeId n : candidates) EXPECT_GE(map.node(n).bow_image, 0);
+      const auto with_bow =
+          map.clusteredNodes(s, o.magnetic.cluster_margin_m, MultiScaleMap::ClusterMembers::kBowVectors);
+      EXPECT_GE(with_bow.size(), candidates.size());
+      for (PoseGraphNodeId n : with_bow) culled_clustered += map.node(n).bow_image < 0 ? 1 : 0;
+    }
+    EXPECT_GT(culled_clustered, 0u);
+    // The culled keyframes' BoW vectors survive a save-load round trip, still outside the BoW
+    // database.
+    MultiScaleMap loaded(vocabularyFor(o), o.graph, 0.0);
+    loaded.deserialize(map.serialize("v"), "round trip");
+    ASSERT_EQ(loaded.numNodes(), map.numNodes());
+    for (PoseGraphNodeId i = 0; i < map.numNodes(); ++i) {
+      EXPECT_EQ(loaded.node(i).bow_image >= 0, map.node(i).bow_image >= 0) << "node " << i;
+      EXPECT_EQ(loaded.node(i).visual.bow.entries.size(), map.node(i).visual.bow.entries.size()) << "node " << i;
+    }
   });
   EXPECT_EQ(st.culled_submaps, culled.size());
   // Pass 2: its first 4 keyframes are within the exclusion window of the pass-1 keyframes under

@@ -154,9 +154,16 @@ class MultiScaleMap {
   Eigen::Isometry3d T_map_odom(PoseGraphNodeId id) const;
   /// World position of a magnetic submap (its tied keyframe's).
   Eigen::Vector3d magneticSubmapPosition(const MagneticSubmap& submap) const;
-  /// Keyframes with a visual submap in the same component as the submap's tied keyframe whose
-  /// horizontal world distance to the submap is at most radius + cluster_margin_m (ascending).
-  std::vector<PoseGraphNodeId> clusteredNodes(const MagneticSubmap& submap, double cluster_margin_m) const;
+  /// Which keyframes clusteredNodes() returns.
+  enum class ClusterMembers {
+    kVisualSubmaps,  ///< keyframes with a stored visual submap: the loop detector's candidates
+    kBowVectors,     ///< also culled keyframes, which keep their BoW vector (evaluation)
+  };
+  /// Keyframes with a visual submap (or a BoW vector, see ClusterMembers) in the same component
+  /// as the submap's tied keyframe whose horizontal world distance to the submap is at most
+  /// radius + cluster_margin_m (ascending).
+  std::vector<PoseGraphNodeId> clusteredNodes(const MagneticSubmap& submap, double cluster_margin_m,
+                                              ClusterMembers members = ClusterMembers::kVisualSubmaps) const;
 
   // ---- persistence
   /// Writes the whole map (file format in docs/pose_graph.md) with the vocabulary reference
