@@ -217,6 +217,7 @@ usage:
                      [evaluation options as run]
   vims_eval place-recognition --sequence DIR --orb-run RUN --brief-run RUN --out OUT [--radius 1.5]
                               [--config FILE] [--package-root DIR]
+  vims_eval map-size --map FILE [--descriptor orb|brief] [--csv OUT] [--package-root DIR]
 
   traj   associate, align and report ATE (m and % of distance), rotation RMSE, RPE per 10 m, Sim3
          scale; the last line is 'VIMS_EVAL key=value ...'. --align defaults to all (se3 first).
@@ -230,6 +231,8 @@ usage:
          OUT/trajectories_top.png, OUT/multiscale_map.png and OUT/place_recognition/.
   place-recognition  precision-recall curves and recognition matrices of Mag-ORB, Mag, ORB and
          BRIEF from an ORB run's map.vimsmap + mag_signatures.csv and a BRIEF run's map.vimsmap.
+  map-size  a saved map's submap memory per keyframe (CSV: t, visual_submap, keypoints, bytes,
+         cumulative_mb) and a 'VIMS_MAP_SIZE ...' line: what bench/soak.py sets beside the RSS.
   --config FILE reads the 'eval:' section of a YAML file first; flags override it.
 
 exit status: 0 ok, 1 evaluation failed (missing or malformed input, no association), 2 bad usage.
@@ -253,7 +256,7 @@ int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ost
     if (command == "run") return commandRun(args, out, err);
     const auto extra = extra_commands.find(command);
     if (extra != extra_commands.end()) return extra->second(args, out, err);
-    throw UsageError("unknown command '" + command + "' (expected traj, loops, run, ablation or place-recognition)");
+    throw UsageError("unknown command '" + command + "' (expected traj, loops, run, ablation, place-recognition or map-size)");
   } catch (const UsageError& e) {
     err << "vims_eval: " << e.what() << "\n(see vims_eval --help)\n";
     return kExitUsage;

@@ -3,8 +3,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 
+#include "vims_eval/cli.h"
+#include "vims_eval/cli_args.h"
 #include "vims_eval/metrics.h"
 #include "vims_eval/plot.h"
 #include "vims_eval/report.h"
@@ -110,6 +113,50 @@ std::string writeMultiScaleMapFigure(const std::string& map_file, const std::str
   }
   plot.savePng(png_path);
   return png_path;
+}
+
+std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map) {
+  std::vector<MapGrowthRow> rows;
+  rows.reserve(map.numNodes());
+  for (const MapNode& n : map.nodes()) {
+    MapGrowthRow r;
+    r.t = n.pose.t;
+    r.visual_submap = !n.visual.empty();
+    r.keypoints = n.visual.keypoints.size();
+    r.bytes = visualSubmapMemoryBytes(n.visual);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+int runMapSizeCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& /*err*/) {
+  const CliArgs a(args, 1, {{"map", true}, {"descriptor", true}, {"csv", true}, {"package-root", true}}, "map-size");
+  const std::string map_file = a.required("map", "map-size");
+  const std::string descriptor = a.get("descriptor", "orb");
+  if (descriptor != "orb" && descriptor != "brief") throw UsageError("map-size: --descriptor must be orb or brief");
+  const LoadedMap loaded = loadSavedMap(map_file, descriptor, a.get("package-root", defaultPackageRoot()));
+  const std::vector<MapGrowthRow> rows = mapGrowth(*loaded.map);
+  std::size_t submaps = 0, keypoints = 0, bytes = 0;
+  std::ofstream csv;
+  if (a.has("csv")) {
+    const std::string path = a.get("csv", "");
+    ensureParent(path);
+    csv.open(path);
+    if (!csv) throw std::runtime_error("cannot write '" + path + "'");
+    csv << "t,visual_submap,keypoints,bytes,cumulative_mb\n";
+  }
+  for (const MapGrowthRow& r : rows) {
+    submaps += r.visual_submap ? 1 : 0;
+    keypoints += r.keypoints;
+    bytes += r.bytes;
+    if (csv.is_open())
+      csv << fixed(r.t, 6) << "," << (r.visual_submap ? 1 : 0) << "," << r.keypoints << "," << r.bytes << ","
+          << fixed(1e-6 * static_cast<double>(bytes), 6) << "\n";
+  }
+  out << "VIMS_MAP_SIZE keyframes=" << rows.size() << " visual_submaps=" << submaps
+      << " without_submap=" << rows.size() - submaps << " keypoints=" << keypoints
+      << " submap_mb=" << fixed(1e-6 * static_cast<double>(bytes), 2) << "\n";
+  return kExitOk;
 }
 
 }  // namespace eval

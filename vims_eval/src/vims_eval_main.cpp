@@ -6,6 +6,7 @@
 #include "vims_eval/cli.h"
 #ifdef VIMS_EVAL_WITH_PAPER
 #include "vims_eval/ablation.h"
+#include "vims_eval/map_figures.h"
 #endif
 
 int main(int argc, char** argv) {
@@ -14,6 +15,7 @@ int main(int argc, char** argv) {
 #ifdef VIMS_EVAL_WITH_PAPER
   extra["ablation"] = vims::eval::runAblationCli;
   extra["place-recognition"] = vims::eval::runPlaceRecognitionCli;
+  extra["map-size"] = vims::eval::runMapSizeCli;
 #endif
   return vims::eval::runEvalCli(args, std::cout, std::cerr, extra);
 }

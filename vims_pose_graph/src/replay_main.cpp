@@ -193,10 +193,7 @@ int main(int argc, char** argv) {
           if (n.visual.empty()) continue;
           ++submaps;
           keypoints += n.visual.keypoints.size();
-          submap_bytes += n.visual.keypoints.capacity() * sizeof(cv::KeyPoint) +
-                          n.visual.descriptors.capacity() * sizeof(BinaryDescriptor) +
-                          n.visual.normalized.capacity() * sizeof(Eigen::Vector2d) +
-                          n.visual.bow.entries.capacity() * sizeof(BowEntry);
+          submap_bytes += visualSubmapMemoryBytes(n.visual);
         }
         file_bytes = map.serialize(options.vocabularyPath()).size();
       });

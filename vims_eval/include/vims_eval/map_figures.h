@@ -4,7 +4,9 @@
 /// several global trajectories in one top view, and the multi-scale map (visual submaps at
 /// their keyframes, magnetic submaps as circles of their radius) of a saved map file.
 
+#include <cstddef>
 #include <memory>
+#include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +43,20 @@ std::string writeTrajectoryComparison(const std::vector<StampedPose>& gt,
 /// (their tied keyframe's) with a centre marker. Writes `png_path`; returns it.
 std::string writeMultiScaleMapFigure(const std::string& map_file, const std::string& descriptor,
                                      const std::string& package_root, const std::string& png_path);
+
+/// What a saved map holds for one keyframe (map order = time order within a run).
+struct MapGrowthRow {
+  double t = 0.0;
+  bool visual_submap = false;  ///< keypoints stored (a loop candidate); else culled or empty
+  std::size_t keypoints = 0;
+  std::size_t bytes = 0;       ///< visualSubmapMemoryBytes: keypoints, descriptors, BoW vector
+};
+std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map);
+
+/// `vims_eval map-size --map FILE [--descriptor orb|brief] [--csv OUT] [--package-root DIR]`:
+/// the map's submap memory per keyframe (bench/soak.py puts it next to the process's RSS, so
+/// that what grows besides the map is visible). Prints one `VIMS_MAP_SIZE ...` line.
+int runMapSizeCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace eval
 }  // namespace vims

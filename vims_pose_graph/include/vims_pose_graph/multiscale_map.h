@@ -30,6 +30,10 @@
 
 namespace vims {
 
+/// Heap bytes a visual submap holds (vector capacities: keypoints, descriptors, normalised
+/// coordinates, BoW entries); what the map's memory grows by per stored keyframe.
+size_t visualSubmapMemoryBytes(const VisualSubmap& submap);
+
 /// Thrown by MultiScaleMap::load for a missing, truncated, corrupt or incompatible map file;
 /// what() names the file and the problem.
 class MapFileError : public std::runtime_error {
