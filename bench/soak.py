@@ -9,6 +9,12 @@ reports RSS per quarter of the sequence, the growth rate of each quarter [MB per
 sequence] and whether memory stops growing: the last quarter grows by less than
 --plateau-pct percent (default 5) of the RSS at its start.
 
+The map is meant to grow while the vehicle sees new places (or known places at a new altitude),
+so the run also saves the map and `vims_eval map-size` gives the submap memory held per
+keyframe (WORK/map_growth.csv). Each quarter then also reports the map's memory, the visual
+submaps it stored, and RSS minus map: what the process holds besides the map (buffers, the
+sliding window, queues, allocator slack), which must stop growing whatever the map does.
+
     bench/soak.py --work /work/data/faults/soak [--duration 3600] [--seed 1] [--reuse DIR]
                   [--interval 10] [--build _build] [--keep-sequence] [--config FILE]
 
@@ -84,7 +90,9 @@ def main():
             sys.exit(f"soak.py: vims_sim failed, see {work}/sim.log")
     bag_bytes = os.path.getsize(bag)
     with open(os.path.join(sequence, name + "_truth.yaml")) as f:
-        duration = float(yaml.safe_load(f)["duration"])
+        truth = yaml.safe_load(f)
+    duration = float(truth["duration"])
+    start_time = float(truth.get("start_time", 0.0))
 
     out = os.path.join(work, "out")
     shutil.rmtree(out, ignore_errors=True)
@@ -92,7 +100,8 @@ def main():
     start = time.monotonic()
     samples = []
     with open(os.path.join(work, "offline.log"), "w") as log:
-        cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out]
+        map_file = os.path.join(out, "map.vimsmap")
+        cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out, "--map-save", map_file]
         if args.config:
             cmd += ["--config", os.path.abspath(args.config)]
         proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
@@ -114,6 +123,26 @@ def main():
     with open(os.path.join(out, "summary.yaml")) as f:
         summary = yaml.safe_load(f)
 
+    # The map's submap memory by keyframe time (cumulative), from the saved map.
+    map_csv = os.path.join(work, "map_growth.csv")
+    code = subprocess.call([os.path.join(bin_dir, "vims_eval"), "map-size", "--map", map_file, "--csv", map_csv,
+                            "--package-root", ROOT])
+    if code != 0:
+        sys.exit("soak.py: vims_eval map-size failed")
+    map_rows = []  # (sequence_s, cumulative_mb, visual_submap)
+    with open(map_csv) as f:
+        for row in csv.DictReader(f):
+            map_rows.append((float(row["t"]) - start_time, float(row["cumulative_mb"]), int(row["visual_submap"])))
+
+    def map_at(seq_s):
+        """(cumulative submap MB, stored visual submaps) of the keyframes up to sequence time seq_s."""
+        mb, stored = 0.0, 0
+        for t, cumulative, visual in map_rows:
+            if t > seq_s:
+                break
+            mb, stored = cumulative, stored + visual
+        return mb, stored
+
     def rss_at(seq_s):
         """RSS of the last sample at or before sequence time seq_s."""
         before = [s for s in samples if s[2] <= seq_s]
@@ -121,25 +150,30 @@ def main():
 
     print(f"[soak] {duration:g} s of sequence in {wall:.0f} s wall; {len(samples)} samples; "
           f"peak RSS {max(s[4] for s in samples):.1f} MB; keyframes {summary['pose_graph']['keyframes']}")
-    print("| quarter | sequence s | RSS at end [MB] | growth [MB per 1000 s] |")
-    print("| --- | --- | --- | --- |")
+    print("| quarter | sequence s | RSS at end [MB] | RSS growth [MB per 1000 s] | map submaps at end [MB] "
+          "| visual submaps stored in the quarter | RSS - map at end [MB] | RSS - map growth [MB per 1000 s] |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     quarters = [duration * q / 4.0 for q in range(5)]
-    growth = []
+    growth, other = [], []
+    # Quarter 1 starts at the first sample after start-up (1 % of the bag read: the vocabulary
+    # and the first buffers are loaded), not at the empty process.
+    started = [s for s in samples if s[1] > 0.01] or samples
     for q in range(4):
-        # Quarter 1 starts at the first sample after start-up (1 % of the bag read: the vocabulary
-        # and the first buffers are loaded), not at the empty process.
-        started = [s for s in samples if s[1] > 0.01] or samples
-        a, b = rss_at(quarters[q]) if q > 0 else started[0][3], rss_at(quarters[q + 1] - 1e-6)
-        if q == 3:
-            b = samples[-1][3]
-        rate = (b - a) / (quarters[q + 1] - quarters[q]) * 1000.0
+        t0 = started[0][2] if q == 0 else quarters[q]
+        t1 = samples[-1][2] if q == 3 else quarters[q + 1] - 1e-6
+        a = started[0][3] if q == 0 else rss_at(t0)
+        b = samples[-1][3] if q == 3 else rss_at(t1)
+        (map_a, stored_a), (map_b, stored_b) = map_at(t0), map_at(t1)
+        span = (quarters[q + 1] - quarters[q]) / 1000.0
         growth.append((a, b))
-        print(f"| {q + 1} | {quarters[q]:.0f}-{quarters[q + 1]:.0f} | {b:.1f} | {rate:.1f} |")
-    a, b = growth[3]
-    pct = 100.0 * (b - a) / a if a > 0 else float("nan")
-    verdict = "stops growing" if pct < args.plateau_pct else "still growing"
-    print(f"[soak] last quarter: {a:.1f} -> {b:.1f} MB ({pct:+.1f} %): memory {verdict} "
-          f"(plateau threshold {args.plateau_pct:g} %)")
+        other.append((a - map_a, b - map_b))
+        print(f"| {q + 1} | {quarters[q]:.0f}-{quarters[q + 1]:.0f} | {b:.1f} | {(b - a) / span:.1f} | {map_b:.1f} "
+              f"| {stored_b - stored_a} | {b - map_b:.1f} | {((b - map_b) - (a - map_a)) / span:.1f} |")
+    for label, (a, b) in (("RSS", growth[3]), ("RSS - map (memory besides the map)", other[3])):
+        pct = 100.0 * (b - a) / a if a > 0 else float("nan")
+        verdict = "stops growing" if pct < args.plateau_pct else "still growing"
+        print(f"[soak] last quarter: {label} {a:.1f} -> {b:.1f} MB ({pct:+.1f} %): {verdict} "
+              f"(plateau threshold {args.plateau_pct:g} %)")
     if not args.reuse and not args.keep_sequence:
         shutil.rmtree(sequence, ignore_errors=True)
 
