@@ -169,6 +169,10 @@ def main():
         other.append((a - map_a, b - map_b))
         print(f"| {q + 1} | {quarters[q]:.0f}-{quarters[q + 1]:.0f} | {b:.1f} | {(b - a) / span:.1f} | {map_b:.1f} "
               f"| {stored_b - stored_a} | {b - map_b:.1f} | {((b - map_b) - (a - map_a)) / span:.1f} |")
+    heap = summary.get("heap_mb", {})
+    if heap:
+        print(f"[soak] at the end: heap in use {heap['in_use']:.1f} MB (map submaps {map_rows[-1][1]:.1f} MB), "
+              f"freed but retained by the allocator {heap['free_retained']:.1f} MB, RSS {samples[-1][3]:.1f} MB")
     for label, (a, b) in (("RSS", growth[3]), ("RSS - map (memory besides the map)", other[3])):
         pct = 100.0 * (b - a) / a if a > 0 else float("nan")
         verdict = "stops growing" if pct < args.plateau_pct else "still growing"

@@ -374,7 +374,7 @@ TEST(Determinism, TwoRunsGiveIdenticalOutputs) {
   // measurements (docs/offline_outputs.md): wall and CPU times, real-time factors, latencies,
   // per-stage totals and the peak RSS; matched by name, as modules add their own keys.
   const auto is_timing = [](const std::string& key) {
-    for (const char* part : {"wall", "real_time_factor", "latency", "cpu", "stage_total", "rss"}) {
+    for (const char* part : {"wall", "real_time_factor", "latency", "cpu", "stage_total", "rss", "heap"}) {
       if (key.find(part) != std::string::npos) return true;
     }
     return key.size() > 3 && key.compare(key.size() - 3, 3, "_ms") == 0;

@@ -14,6 +14,7 @@
 #include <mutex>
 #include <numeric>
 #include <optional>
+#include <malloc.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -419,6 +420,11 @@ OfflineSummary OfflinePipeline::run() {
   summary.vio_real_time_factor = vio_s > 0 ? span / vio_s : 0.0;
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) == 0) summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
+  // Where the resident memory is (glibc, all arenas): what the program holds, and what it freed
+  // but the allocator keeps (fragmentation), so a soak can tell growth from retention.
+  const struct mallinfo2 heap = mallinfo2();
+  summary.heap_in_use_mb = static_cast<double>(heap.uordblks + heap.hblkhd) / (1024.0 * 1024.0);
+  summary.heap_free_retained_mb = static_cast<double>(heap.fordblks) / (1024.0 * 1024.0);
   writeSummary(summary);
   return summary;
 }
@@ -438,6 +444,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "vio_real_time_factor: " << s.vio_real_time_factor << "\n";
   out << "threads: " << s.threads << "\n";
   out << "peak_rss_mb: " << s.peak_rss_mb << "\n";
+  out << "heap_mb: {in_use: " << s.heap_in_use_mb << ", free_retained: " << s.heap_free_retained_mb << "}\n";
   out << "sonar_filter: {samples: " << s.sonar.samples << ", accepted: " << s.sonar.accepted
       << ", outliers: " << s.sonar.outliers << ", dropouts: " << s.sonar.dropouts
       << ", warming_up: " << s.sonar.warming_up << ", resets: " << s.sonar.resets << "}\n";

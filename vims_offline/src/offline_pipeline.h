@@ -106,6 +106,8 @@ struct OfflineSummary {
   /// sequence_duration_s over their sum: the VIO's cost, independent of other load on the machine.
   double frontend_cpu_s = 0.0, backend_cpu_s = 0.0, vio_cpu_real_time_factor = 0.0;
   double peak_rss_mb = 0.0;  ///< getrusage ru_maxrss at the end of the run
+  double heap_in_use_mb = 0.0;         ///< mallinfo2 uordblks + hblkhd at the end of the run
+  double heap_free_retained_mb = 0.0;  ///< mallinfo2 fordblks: freed, still held by the allocator
   int threads = 1;
   long vio_frames = 0;        ///< poses written to vio.tum
   long vio_keyframes = 0;

@@ -43,13 +43,14 @@ inline int pointDistance(const DescribedPoints& points, const std::vector<uint32
 /// One point's descriptors regrouped per keypoint octave: the ones pointDistance() compares with
 /// a keypoint of octave o, contiguous (ORB pyramids have 8 levels; octaves outside
 /// [0, kOctaves) take the general path). Built once per point instead of filtering the point's
-/// descriptors by level for each of the ~3000 keypoints of a candidate.
+/// descriptors by level for each of the ~3000 keypoints of a candidate; assign() reuses the
+/// storage of the previous point (one allocation per matching call, not per point).
 class DescriptorsByOctave {
  public:
   static constexpr int kOctaves = 16;
 
-  DescriptorsByOctave(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
-                      const LevelWindow& levels) {
+  void assign(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids, const LevelWindow& levels) {
+    flat_.clear();
     for (int o = 0; o < kOctaves; ++o) {
       begin_[static_cast<size_t>(o)] = flat_.size();
       for (uint32_t d : descriptor_ids)
@@ -58,7 +59,8 @@ class DescriptorsByOctave {
     }
     begin_[kOctaves] = flat_.size();
   }
-  bool covers(int octave) const { return octave >= 0 && octave < kOctaves; }
+  static bool covers(int octave) { return octave >= 0 && octave < kOctaves; }
+  bool empty(int octave) const { return begin_[static_cast<size_t>(octave)] == begin_[static_cast<size_t>(octave) + 1]; }
   const BinaryDescriptor* begin(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave)]; }
   const BinaryDescriptor* end(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave) + 1]; }
 
@@ -67,27 +69,106 @@ class DescriptorsByOctave {
   std::array<size_t, kOctaves + 1> begin_{};
 };
 
-/// pointDistance() of one point to every keypoint of `candidate` into `distance`; returns the
-/// index of the first smallest. The loop detector's hot loop, hence the popcount dispatch.
+/// The candidate's keypoints grouped by octave (counting sort, stable: ascending keypoint index
+/// within a group), with their descriptors and pixels copied in that order; group kOctaves holds
+/// the octaves DescriptorsByOctave does not cover. Built once per matching call, so each point
+/// is compared only with the groups its level window admits, one descriptor set per group,
+/// instead of looking up the window for each keypoint (a varying inner loop per keypoint).
+class KeypointsByOctave {
+ public:
+  static constexpr int kGroups = DescriptorsByOctave::kOctaves + 1;
+
+  explicit KeypointsByOctave(const VisualSubmap& candidate) {
+    const size_t n = candidate.keypoints.size();
+    std::array<size_t, kGroups + 1> next{};
+    for (const cv::KeyPoint& kp : candidate.keypoints) ++next[static_cast<size_t>(groupOf(kp.octave)) + 1];
+    for (int g = 0; g < kGroups; ++g) next[static_cast<size_t>(g) + 1] += next[static_cast<size_t>(g)];
+    begin_ = next;
+    index.resize(n);
+    descriptor.resize(n);
+    pt.resize(n);
+    octave.resize(n);
+    for (size_t k = 0; k < n; ++k) {
+      const size_t at = next[static_cast<size_t>(groupOf(candidate.keypoints[k].octave))]++;
+      index[at] = static_cast<uint32_t>(k);
+      descriptor[at] = candidate.descriptors[k];
+      pt[at] = candidate.keypoints[k].pt;
+      octave[at] = candidate.keypoints[k].octave;
+    }
+  }
+  static int groupOf(int octave) {
+    return DescriptorsByOctave::covers(octave) ? octave : DescriptorsByOctave::kOctaves;
+  }
+  size_t begin(int group) const { return begin_[static_cast<size_t>(group)]; }
+  size_t end(int group) const { return begin_[static_cast<size_t>(group) + 1]; }
+  size_t size() const { return index.size(); }
+
+  std::vector<uint32_t> index;  ///< keypoint index in the candidate
+  std::vector<BinaryDescriptor> descriptor;
+  std::vector<cv::Point2f> pt;
+  std::vector<int> octave;
+
+ private:
+  std::array<size_t, kGroups + 1> begin_{};
+};
+
+/// Whether a point's distances to the keypoints of `group` were computed (see
+/// distancesToKeypoints()); the others are all 257.
+using ActiveGroups = std::array<bool, KeypointsByOctave::kGroups>;
+
+/// pointDistance() of one point to the keypoints of every group its level window admits, into
+/// `distance` (indexed like `keypoints`); `active` tells which groups were filled. Keypoints of
+/// the other groups are at 257 ("no match": no descriptor of the point is compared with them),
+/// which never wins and never lowers a second best, so they need no entry. Returns the position
+/// of the smallest distance, the lowest keypoint index among equal ones (the first smallest in
+/// candidate order), or keypoints.size() when nothing was compared. The loop detector's hot
+/// loop, hence the popcount dispatch.
 VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points,
                                                    const std::vector<uint32_t>& descriptor_ids,
                                                    const DescriptorsByOctave& by_octave,
-                                                   const VisualSubmap& candidate, const LevelWindow& levels,
-                                                   std::vector<int>* distance) {
-  size_t best = 0;
-  for (size_t k = 0; k < candidate.keypoints.size(); ++k) {
-    const int octave = candidate.keypoints[k].octave;
-    int d = 257;
-    if (by_octave.covers(octave)) {
-      for (const BinaryDescriptor* it = by_octave.begin(octave); it != by_octave.end(octave); ++it)
-        d = std::min(d, hammingDistance(*it, candidate.descriptors[k]));
+                                                   const KeypointsByOctave& keypoints, const LevelWindow& levels,
+                                                   std::vector<int>* distance, ActiveGroups* active) {
+  size_t best = keypoints.size();
+  int best_distance = 257;
+  for (int g = 0; g < KeypointsByOctave::kGroups; ++g) {
+    const size_t first = keypoints.begin(g);
+    const size_t last = keypoints.end(g);
+    const bool covered = g < DescriptorsByOctave::kOctaves;
+    (*active)[static_cast<size_t>(g)] = first < last && !(covered && by_octave.empty(g));
+    if (!(*active)[static_cast<size_t>(g)]) continue;
+    size_t group_best = first;
+    int group_best_distance = 257;
+    if (covered) {
+      const BinaryDescriptor* const d_begin = by_octave.begin(g);
+      const BinaryDescriptor* const d_end = by_octave.end(g);
+      for (size_t j = first; j < last; ++j) {
+        const BinaryDescriptor& other = keypoints.descriptor[j];
+        int d = hammingDistance(*d_begin, other);
+        for (const BinaryDescriptor* it = d_begin + 1; it != d_end; ++it) d = std::min(d, hammingDistance(*it, other));
+        (*distance)[j] = d;
+        if (d < group_best_distance) {
+          group_best_distance = d;
+          group_best = j;
+        }
+      }
     } else {
-      d = pointDistance(points, descriptor_ids, candidate.descriptors[k], octave, levels);
+      for (size_t j = first; j < last; ++j) {
+        const int d = pointDistance(points, descriptor_ids, keypoints.descriptor[j], keypoints.octave[j], levels);
+        (*distance)[j] = d;
+        if (d < group_best_distance) {
+          group_best_distance = d;
+          group_best = j;
+        }
+      }
     }
-    (*distance)[k] = d;
-    if (d < (*distance)[best]) best = k;
+    if (group_best_distance < best_distance ||
+        (group_best_distance == best_distance && best_distance < 257 &&
+         keypoints.index[group_best] < keypoints.index[best])) {
+      best_distance = group_best_distance;
+      best = group_best;
+    }
   }
-  return best;
+  return best_distance < 257 ? best : keypoints.size();
 }
 
 /// RANSAC iterations that suffice to reject a candidate: had `min_inliers` of the `num_matches`
@@ -188,41 +269,50 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
   const size_t num_keypoints = candidate.keypoints.size();
   if (points.empty() || num_keypoints == 0 || candidate.descriptors.size() != num_keypoints) return matches;
   const std::vector<std::vector<uint32_t>> by_point = descriptorsByPoint(points);
+  const KeypointsByOctave keypoints(candidate);
   const double duplicate_r2 = duplicate_radius_px * duplicate_radius_px;
-  std::vector<int> distance(num_keypoints);
+  std::vector<int> distance(num_keypoints);  // indexed like `keypoints` (grouped by octave)
+  ActiveGroups active{};
+  DescriptorsByOctave by_octave;
   for (uint32_t p = 0; p < by_point.size(); ++p) {
     if (by_point[p].empty()) continue;
-    const DescriptorsByOctave by_octave(points, by_point[p], levels);
-    const size_t best = distancesToKeypoints(points, by_point[p], by_octave, candidate, levels, &distance);
-    if (distance[best] > max_distance) continue;
+    by_octave.assign(points, by_point[p], levels);
+    const size_t best = distancesToKeypoints(points, by_point[p], by_octave, keypoints, levels, &distance, &active);
+    if (best == keypoints.size() || distance[best] > max_distance) continue;
+    const int best_distance = distance[best];
     if (ratio < 1.0) {
       // Second best among keypoints at another place: the same corner detected on another
-      // pyramid level is not a competing match.
-      const cv::Point2f& at = candidate.keypoints[best].pt;
+      // pyramid level is not a competing match. Only the compared groups: the others are at 257,
+      // the initial value. Stops as soon as the ratio test fails (a smaller second best cannot
+      // make it pass again).
+      const cv::Point2f& at = keypoints.pt[best];
       int second = 257;
-      for (size_t k = 0; k < num_keypoints; ++k) {
-        if (k == best) continue;
-        const cv::Point2f d = candidate.keypoints[k].pt - at;
-        if (static_cast<double>(d.x) * d.x + static_cast<double>(d.y) * d.y <= duplicate_r2) continue;
-        second = std::min(second, distance[k]);
+      bool ambiguous = false;
+      for (int g = 0; g < KeypointsByOctave::kGroups && !ambiguous; ++g) {
+        if (!active[static_cast<size_t>(g)]) continue;
+        for (size_t j = keypoints.begin(g); j < keypoints.end(g); ++j) {
+          if (distance[j] >= second || j == best) continue;
+          const cv::Point2f d = keypoints.pt[j] - at;
+          if (static_cast<double>(d.x) * d.x + static_cast<double>(d.y) * d.y <= duplicate_r2) continue;
+          second = distance[j];
+          ambiguous = !(best_distance < ratio * second);
+          if (ambiguous) break;
+        }
       }
-      if (!(distance[best] < ratio * second)) continue;
+      if (ambiguous || !(best_distance < ratio * second)) continue;
     }
-    matches.push_back(PointMatch{p, static_cast<uint32_t>(best), distance[best]});
+    matches.push_back(PointMatch{p, keypoints.index[best], best_distance});
   }
   // One point per keypoint: keep the closest (ties: the lower point index, the order above).
-  std::map<uint32_t, size_t> owner;
+  std::vector<int> owner(num_keypoints, -1);  // index in `matches` of each keypoint's owner
   for (size_t i = 0; i < matches.size(); ++i) {
-    auto it = owner.find(matches[i].keypoint);
-    if (it == owner.end())
-      owner.emplace(matches[i].keypoint, i);
-    else if (matches[i].distance < matches[it->second].distance)
-      it->second = i;
+    int& o = owner[matches[i].keypoint];
+    if (o < 0 || matches[i].distance < matches[static_cast<size_t>(o)].distance) o = static_cast<int>(i);
   }
   std::vector<PointMatch> unique;
-  unique.reserve(owner.size());
+  unique.reserve(matches.size());
   for (size_t i = 0; i < matches.size(); ++i)
-    if (owner.at(matches[i].keypoint) == i) unique.push_back(matches[i]);
+    if (owner[matches[i].keypoint] == static_cast<int>(i)) unique.push_back(matches[i]);
   return unique;
 }
 

@@ -71,6 +71,8 @@ PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
                              options_.loop.submap_corner_max_level);
   describer_.setDenseCornersPerLevel(options_.loop.submap_dense_corners_per_level);
+  describer_.setSeabedCorners(options_.loop.query_seabed_corners, options_.loop.submap_corner_min_distance_px,
+                              options_.loop.submap_corner_max_level);
   if (!vocabulary_ || vocabulary_->empty())
     throw std::invalid_argument("PoseGraphManager: no vocabulary (load " + options_.vocabularyPath() + ")");
   if (vocabulary_->descriptorType() != toString(mode_.descriptor))
@@ -178,12 +180,13 @@ void PoseGraphManager::dispatch(Event& event) {
     DescribedPoints points;
     DescribedPoints seabed_points;
     if (std::isfinite(kf->t) && isValidPose(kf->T_odom_b)) {
-      submap = describer_.describeKeyframe(kf->image, kf->features, vocabulary_.get(), &points);
-      if (options_.loop.query_seabed_corners > 0 && !submap.empty())
-        seabed_points = describer_.describeSeabedCorners(kf->image, points, kf->T_odom_b * sequence_.camera.T_b_c,
-                                                         options_.loop.query_seabed_corners,
-                                                         options_.loop.submap_corner_min_distance_px,
-                                                         options_.loop.submap_corner_max_level);
+      // Submap, tracked points and (query_seabed_corners, via setSeabedCorners) seabed corners in
+      // one pass: one pyramid, corner response and ORB description for the keyframe.
+      KeyframeDescription d = describer_.describeKeyframeAndSeabed(
+          kf->image, kf->features, kf->T_odom_b * sequence_.camera.T_b_c, vocabulary_.get());
+      submap = std::move(d.submap);
+      points = std::move(d.points);
+      seabed_points = std::move(d.seabed_points);
     }
     std::lock_guard<std::mutex> lk(state_mutex_);
     handleKeyframe(*kf, std::move(submap), std::move(points), std::move(seabed_points));

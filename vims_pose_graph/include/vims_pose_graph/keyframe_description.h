@@ -8,7 +8,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
+#include <Eigen/Geometry>
+
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "vims_common/keyframe_data.h"
@@ -68,6 +71,76 @@ std::vector<Eigen::Vector2d> undistortPixels(const CameraCalibration& camera, co
 /// Projects a point in the camera frame to distorted pixels; false behind the camera.
 bool projectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& p_c, Eigen::Vector2d* pixel);
 
+/// The ORB pyramid of a mono8 image: level l = level l-1 resized by 1/scale_factor with
+/// INTER_LINEAR_EXACT to round(size / scale_factor^l), the images cv::ORB builds; at most `levels`
+/// levels, ending before one too small for ORB's 31 px patch.
+std::vector<cv::Mat> buildOrbPyramid(const cv::Mat& mono, double scale_factor, int levels);
+
+/// cv::goodFeaturesToTrack (no mask, minimum eigenvalue, 3x3 Sobel gradients) split into its two
+/// halves, so that one response map serves several selections on the same image: the
+/// constructor computes the response, zeroes it below quality_level x its maximum and keeps the
+/// 3x3 local maxima; select() takes them strongest first (equal responses: later pixel first,
+/// OpenCV's deterministic order) with OpenCV's greedy grid test. select(n, d) returns exactly
+/// goodFeaturesToTrack(image, n, quality_level, d, noArray(), block_size, false) (test:
+/// ShiTomasiCandidates.SelectionEqualsGoodFeaturesToTrack). Unlike OpenCV, which sorts all
+/// candidates, it sorts them only as far as a selection reaches.
+class ShiTomasiCandidates {
+ public:
+  ShiTomasiCandidates(const cv::Mat& mono, double quality_level, int block_size);
+
+  /// At most max_corners (<= 0: all) candidates, strongest first, none closer than min_distance
+  /// to a stronger selected one (min_distance < 1: no distance test), in pixels of the image.
+  /// Not const: sorts more of the candidates when it needs them.
+  std::vector<cv::Point2f> select(int max_corners, double min_distance);
+  size_t size() const { return keys_.size(); }
+
+ private:
+  /// Makes keys_[0, n) (n capped at size()) the n strongest candidates in order.
+  void sortFirst(size_t n);
+  cv::Point pixelOf(size_t i) const;
+
+  cv::Size image_size_;
+  /// Local maxima above the quality threshold: response (order-preserving bits) << 32 | pixel
+  /// index, so descending key order is OpenCV's order. [0, sorted_) is sorted descending and
+  /// every later key is smaller than those.
+  std::vector<uint64_t> keys_;
+  size_t sorted_ = 0;
+};
+
+/// A keyframe image prepared once for all of its descriptions (the submap's tracked and dense
+/// corners, the query's seabed corners): the mono8 image, its ORB pyramid and, per pyramid
+/// level, the Shi-Tomasi candidates (detected on first use). The pyramid and the corner
+/// responses were built once per describe call before, several times per keyframe
+/// (docs/pose_graph.md, "Corner replication").
+class KeyframeImage {
+ public:
+  /// mono8 or bgr8 `image` (an empty or unsupported image gives empty()); `levels` pyramid levels.
+  KeyframeImage(const cv::Mat& image, double scale_factor, int levels);
+
+  bool empty() const { return mono_.empty(); }
+  const cv::Mat& mono() const { return mono_; }
+  const std::vector<cv::Mat>& pyramid() const { return pyramid_; }
+
+  /// Shi-Tomasi corners (block 3, 0.1 % quality: the tracker's detector) of pyramid level
+  /// `level`, at most max_corners min_distance_px apart on that level, in level-0 pixels (level
+  /// pixel x scale^level, cv::ORB's convention for its own keypoints). Equals
+  /// cv::goodFeaturesToTrack on that level; the response is computed once per level.
+  std::vector<cv::Point2f> cornersOnLevel(int level, int max_corners, double min_distance_px);
+
+ private:
+  cv::Mat mono_;
+  std::vector<cv::Mat> pyramid_;
+  double scale_factor_;
+  std::vector<std::unique_ptr<ShiTomasiCandidates>> candidates_;  ///< per level, null until used
+};
+
+/// Everything the loop closer keeps of one keyframe (KeyframeDescriber::describeKeyframeAndSeabed).
+struct KeyframeDescription {
+  VisualSubmap submap;            ///< see describeKeyframe
+  DescribedPoints points;         ///< its tracked points (the loop query's own points)
+  DescribedPoints seabed_points;  ///< its seabed corners (see describeSeabedCorners); empty when off
+};
+
 /// Builds visual submaps and described points. Keeps OpenCV detector objects: one per thread.
 class KeyframeDescriber {
  public:
@@ -87,6 +160,14 @@ class KeyframeDescriber {
   /// enabled) and, in *points, its described tracked points for use as a loop query.
   VisualSubmap describeKeyframe(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
                                 const BinaryVocabulary* vocabulary, DescribedPoints* points);
+
+  /// describeKeyframe and, when set (setSeabedCorners) and the submap is not empty,
+  /// describeSeabedCorners of the same keyframe (T_odom_c: its camera pose in the VIO frame), with
+  /// the same results as the separate calls but one pyramid, one corner response per level and
+  /// one cv::ORB::compute call (each builds and blurs ORB's own 8-level pyramid) for the
+  /// keyframe (test: KeyframeDescriber.OnePassEqualsSeparateCalls).
+  KeyframeDescription describeKeyframeAndSeabed(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
+                                                const Eigen::Isometry3d& T_odom_c, const BinaryVocabulary* vocabulary);
 
   /// Describes the tracked points of a keyframe. ORB: each point is replicated on every pyramid
   /// level (same location, size patch_size * scale^level), oriented by the intensity centroid
@@ -119,20 +200,33 @@ class KeyframeDescriber {
                                         const Eigen::Isometry3d& T_odom_c, int max_corners, double min_distance_px,
                                         int max_level);
   static constexpr int kNeighbours = 8;
+  /// The seabed corners describeKeyframeAndSeabed adds (arguments of describeSeabedCorners);
+  /// max_corners 0 (the default) = none.
+  void setSeabedCorners(int max_corners, double min_distance_px, int max_level);
 
   const FeatureExtractionOptions& featureOptions() const { return features_; }
 
  private:
-  /// The ORB pyramid (level l = level l-1 resized by 1/scale with INTER_LINEAR_EXACT, the sizes
-  /// cv::ORB uses).
-  std::vector<cv::Mat> buildPyramid(const cv::Mat& image) const;
-  /// describePoints on pyramid levels min_level..max_level only.
-  DescribedPoints describePointsOnLevels(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
-                                         int min_level, int max_level);
-  /// Shi-Tomasi corners (block 3, 0.1 % quality) of pyramid level `level`, at most max_corners
-  /// min_distance_px apart on that level, in level-0 pixels.
-  std::vector<cv::Point2f> cornersOnLevel(const std::vector<cv::Mat>& pyramid, int level, int max_corners,
-                                          double min_distance_px) const;
+  class OrbBatch;
+
+  /// The image prepared with this describer's pyramid (one level for BRIEF).
+  KeyframeImage prepare(const cv::Mat& image) const;
+  /// describeKeyframe(AndSeabed): seabed corners only with `T_odom_c` and setSeabedCorners.
+  KeyframeDescription describeAll(KeyframeImage& image, const std::vector<KeyframeLandmark>& features,
+                                  const Eigen::Isometry3d* T_odom_c, const BinaryVocabulary* vocabulary);
+  /// The describable points of `features` (finite, outside ORB's border), without descriptors.
+  static DescribedPoints usablePoints(const cv::Mat& mono, const std::vector<KeyframeLandmark>& features);
+  /// Queues the ORB keypoints of `points` replicated on pyramid levels min_level..max_level
+  /// (Harris-tested, oriented) into `batch`; their descriptors go to *points on batch.compute.
+  void replicateOnLevels(const KeyframeImage& image, DescribedPoints* points, int min_level, int max_level,
+                         OrbBatch* batch) const;
+  /// BRIEF: one descriptor per Harris-tested point, at the original scale.
+  void describeBrief(const cv::Mat& mono, DescribedPoints* points) const;
+  /// Queues the seabed corners of levels 1..max_level into `batch` as entries of *per_level (one
+  /// DescribedPoints per level; merged in level order after batch.compute).
+  void queueSeabedCorners(KeyframeImage& image, const DescribedPoints& tracked, const Eigen::Isometry3d& T_odom_c,
+                          int max_corners, double min_distance_px, int max_level,
+                          std::vector<std::unique_ptr<DescribedPoints>>* per_level, OrbBatch* batch) const;
 
   FeatureExtractionOptions features_;
   double harris_threshold_;
@@ -141,6 +235,9 @@ class KeyframeDescriber {
   double dense_min_distance_px_ = 4.0;
   int dense_max_level_ = 3;
   bool dense_per_level_ = false;
+  int seabed_corners_ = 0;
+  double seabed_min_distance_px_ = 4.0;
+  int seabed_max_level_ = 3;
   CameraCalibration camera_;
   FeatureExtractor extractor_;
   cv::Ptr<cv::ORB> orb_;  ///< computes descriptors at given keypoints (same settings as the extractor)
