@@ -84,24 +84,17 @@ MagneticSubmapOptions MagneticSubmapOptions::fromReader(const ConfigReader& read
                             "max_time_gap_s", "smoothing_half_window", "min_radius_m", "max_radius_m",
                             "cluster_margin_m"});
   MagneticSubmapOptions o;
-  o.max_relative_variation = reader.get<double>("max_relative_variation", o.max_relative_variation);
-  requireInRange(reader, "max_relative_variation", o.max_relative_variation, 1e-3, 10.0);
-  o.min_amplitude_tesla = reader.get<double>("min_amplitude_tesla", o.min_amplitude_tesla);
-  requireInRange(reader, "min_amplitude_tesla", o.min_amplitude_tesla, 0.0, 1e-3);
-  o.min_members = reader.get<int>("min_members", o.min_members);
-  requireInRange(reader, "min_members", o.min_members, 1, 100000);
-  o.max_members = reader.get<int>("max_members", o.max_members);
-  requireInRange(reader, "max_members", o.max_members, o.min_members, 100000);
+  readInRange(reader, "max_relative_variation", &o.max_relative_variation, 1e-3, 10.0);
+  readInRange(reader, "min_amplitude_tesla", &o.min_amplitude_tesla, 0.0, 1e-3);
+  readInRange(reader, "min_members", &o.min_members, 1, 100000);
+  readInRange(reader, "max_members", &o.max_members, o.min_members, 100000);
   o.max_time_gap_s = reader.get<double>("max_time_gap_s", o.max_time_gap_s);
   requirePositive(reader, "max_time_gap_s", o.max_time_gap_s);
-  o.smoothing_half_window = reader.get<int>("smoothing_half_window", o.smoothing_half_window);
-  requireInRange(reader, "smoothing_half_window", o.smoothing_half_window, 0, 1000);
+  readInRange(reader, "smoothing_half_window", &o.smoothing_half_window, 0, 1000);
   o.min_radius_m = reader.get<double>("min_radius_m", o.min_radius_m);
   requireNonNegative(reader, "min_radius_m", o.min_radius_m);
-  o.max_radius_m = reader.get<double>("max_radius_m", o.max_radius_m);
-  requireInRange(reader, "max_radius_m", o.max_radius_m, std::max(o.min_radius_m, 1e-3), 1e4);
-  o.cluster_margin_m = reader.get<double>("cluster_margin_m", o.cluster_margin_m);
-  requireInRange(reader, "cluster_margin_m", o.cluster_margin_m, 0.0, 1e3);
+  readInRange(reader, "max_radius_m", &o.max_radius_m, std::max(o.min_radius_m, 1e-3), 1e4);
+  readInRange(reader, "cluster_margin_m", &o.cluster_margin_m, 0.0, 1e3);
   return o;
 }
 
@@ -153,86 +146,48 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
                             "covisibility_min_neighbours", "covisibility_search_radius_px",
                             "record_prefilter_rejections"});
   LoopDetectorOptions o;
-  o.exclude_recent_keyframes = reader.get<int>("exclude_recent_keyframes", o.exclude_recent_keyframes);
-  requireInRange(reader, "exclude_recent_keyframes", o.exclude_recent_keyframes, 0, 1000000);
+  readInRange(reader, "exclude_recent_keyframes", &o.exclude_recent_keyframes, 0, 1000000);
   o.exclude_recent_s = reader.get<double>("exclude_recent_s", o.exclude_recent_s);
   requireNonNegative(reader, "exclude_recent_s", o.exclude_recent_s);
-  o.redundant_submap_radius_m = reader.get<double>("redundant_submap_radius_m", o.redundant_submap_radius_m);
-  requireInRange(reader, "redundant_submap_radius_m", o.redundant_submap_radius_m, 0.0, 100.0);
-  o.redundant_submap_max_height_difference_m =
-      reader.get<double>("redundant_submap_max_height_difference_m", o.redundant_submap_max_height_difference_m);
-  requireInRange(reader, "redundant_submap_max_height_difference_m", o.redundant_submap_max_height_difference_m, 0.0,
+  readInRange(reader, "redundant_submap_radius_m", &o.redundant_submap_radius_m, 0.0, 100.0);
+  readInRange(reader, "redundant_submap_max_height_difference_m", &o.redundant_submap_max_height_difference_m, 0.0,
                  100.0);
-  o.query_signature_max_dt_s = reader.get<double>("query_signature_max_dt_s", o.query_signature_max_dt_s);
-  requireInRange(reader, "query_signature_max_dt_s", o.query_signature_max_dt_s, 0.0, 60.0);
-  o.mag_distance_relative = reader.get<double>("mag_distance_relative", o.mag_distance_relative);
-  requireInRange(reader, "mag_distance_relative", o.mag_distance_relative, 0.0, 100.0);
-  o.mag_distance_floor_tesla = reader.get<double>("mag_distance_floor_tesla", o.mag_distance_floor_tesla);
-  requireInRange(reader, "mag_distance_floor_tesla", o.mag_distance_floor_tesla, 0.0, 1e-3);
-  o.mag_max_candidates = reader.get<int>("mag_max_candidates", o.mag_max_candidates);
-  requireInRange(reader, "mag_max_candidates", o.mag_max_candidates, 1, 100000);
-  o.bow_min_score = reader.get<double>("bow_min_score", o.bow_min_score);
-  requireInRange(reader, "bow_min_score", o.bow_min_score, 0.0, 1.0);
-  o.bow_max_candidates = reader.get<int>("bow_max_candidates", o.bow_max_candidates);
-  requireInRange(reader, "bow_max_candidates", o.bow_max_candidates, 1, 100000);
-  o.bow_max_candidates_all = reader.get<int>("bow_max_candidates_all", o.bow_max_candidates_all);
-  requireInRange(reader, "bow_max_candidates_all", o.bow_max_candidates_all, 1, 100000);
-  o.harris_threshold = reader.get<double>("harris_threshold", o.harris_threshold);
-  requireInRange(reader, "harris_threshold", o.harris_threshold, 0.0, 1.0);
+  readInRange(reader, "query_signature_max_dt_s", &o.query_signature_max_dt_s, 0.0, 60.0);
+  readInRange(reader, "mag_distance_relative", &o.mag_distance_relative, 0.0, 100.0);
+  readInRange(reader, "mag_distance_floor_tesla", &o.mag_distance_floor_tesla, 0.0, 1e-3);
+  readInRange(reader, "mag_max_candidates", &o.mag_max_candidates, 1, 100000);
+  readInRange(reader, "bow_min_score", &o.bow_min_score, 0.0, 1.0);
+  readInRange(reader, "bow_max_candidates", &o.bow_max_candidates, 1, 100000);
+  readInRange(reader, "bow_max_candidates_all", &o.bow_max_candidates_all, 1, 100000);
+  readInRange(reader, "harris_threshold", &o.harris_threshold, 0.0, 1.0);
   o.submap_include_tracked_corners =
       reader.get<bool>("submap_include_tracked_corners", o.submap_include_tracked_corners);
-  o.submap_dense_corners = reader.get<int>("submap_dense_corners", o.submap_dense_corners);
-  requireInRange(reader, "submap_dense_corners", o.submap_dense_corners, 0, 100000);
-  o.query_local_map_keyframes = reader.get<int>("query_local_map_keyframes", o.query_local_map_keyframes);
-  requireInRange(reader, "query_local_map_keyframes", o.query_local_map_keyframes, 0, 100);
-  o.submap_corner_min_distance_px =
-      reader.get<double>("submap_corner_min_distance_px", o.submap_corner_min_distance_px);
-  requireInRange(reader, "submap_corner_min_distance_px", o.submap_corner_min_distance_px, 1.0, 1000.0);
-  o.submap_corner_max_level = reader.get<int>("submap_corner_max_level", o.submap_corner_max_level);
-  requireInRange(reader, "submap_corner_max_level", o.submap_corner_max_level, 0, 16);
+  readInRange(reader, "submap_dense_corners", &o.submap_dense_corners, 0, 100000);
+  readInRange(reader, "query_local_map_keyframes", &o.query_local_map_keyframes, 0, 100);
+  readInRange(reader, "submap_corner_min_distance_px", &o.submap_corner_min_distance_px, 1.0, 1000.0);
+  readInRange(reader, "submap_corner_max_level", &o.submap_corner_max_level, 0, 16);
   o.submap_dense_corners_per_level =
       reader.get<bool>("submap_dense_corners_per_level", o.submap_dense_corners_per_level);
-  o.query_seabed_corners = reader.get<int>("query_seabed_corners", o.query_seabed_corners);
-  requireInRange(reader, "query_seabed_corners", o.query_seabed_corners, 0, 100000);
-  o.query_seabed_min_level_shift = reader.get<double>("query_seabed_min_level_shift", o.query_seabed_min_level_shift);
-  requireInRange(reader, "query_seabed_min_level_shift", o.query_seabed_min_level_shift, 0.0, 64.0);
-  o.match_ratio = reader.get<double>("match_ratio", o.match_ratio);
-  requireInRange(reader, "match_ratio", o.match_ratio, 0.01, 1.0);
-  o.match_max_distance = reader.get<int>("match_max_distance", o.match_max_distance);
-  requireInRange(reader, "match_max_distance", o.match_max_distance, 0, 256);
-  o.match_max_level_difference = reader.get<int>("match_max_level_difference", o.match_max_level_difference);
-  requireInRange(reader, "match_max_level_difference", o.match_max_level_difference, -1, 64);
-  o.match_duplicate_radius_px = reader.get<double>("match_duplicate_radius_px", o.match_duplicate_radius_px);
-  requireInRange(reader, "match_duplicate_radius_px", o.match_duplicate_radius_px, 0.0, 100.0);
+  readInRange(reader, "query_seabed_corners", &o.query_seabed_corners, 0, 100000);
+  readInRange(reader, "query_seabed_min_level_shift", &o.query_seabed_min_level_shift, 0.0, 64.0);
+  readInRange(reader, "match_ratio", &o.match_ratio, 0.01, 1.0);
+  readInRange(reader, "match_max_distance", &o.match_max_distance, 0, 256);
+  readInRange(reader, "match_max_level_difference", &o.match_max_level_difference, -1, 64);
+  readInRange(reader, "match_duplicate_radius_px", &o.match_duplicate_radius_px, 0.0, 100.0);
   o.match_level_from_altitude = reader.get<bool>("match_level_from_altitude", o.match_level_from_altitude);
-  o.match_predicted_level_tolerance =
-      reader.get<double>("match_predicted_level_tolerance", o.match_predicted_level_tolerance);
-  requireInRange(reader, "match_predicted_level_tolerance", o.match_predicted_level_tolerance, 0.0, 64.0);
-  o.proximity_candidates = reader.get<int>("proximity_candidates", o.proximity_candidates);
-  requireInRange(reader, "proximity_candidates", o.proximity_candidates, 0, 1000);
-  o.proximity_radius_m = reader.get<double>("proximity_radius_m", o.proximity_radius_m);
-  requireInRange(reader, "proximity_radius_m", o.proximity_radius_m, 0.0, 1000.0);
-  o.pnp_reprojection_px = reader.get<double>("pnp_reprojection_px", o.pnp_reprojection_px);
-  requireInRange(reader, "pnp_reprojection_px", o.pnp_reprojection_px, 0.1, 100.0);
-  o.pnp_iterations = reader.get<int>("pnp_iterations", o.pnp_iterations);
-  requireInRange(reader, "pnp_iterations", o.pnp_iterations, 1, 100000);
-  o.pnp_confidence = reader.get<double>("pnp_confidence", o.pnp_confidence);
-  requireInRange(reader, "pnp_confidence", o.pnp_confidence, 0.5, 0.999999);
-  o.pnp_min_inliers = reader.get<int>("pnp_min_inliers", o.pnp_min_inliers);
-  requireInRange(reader, "pnp_min_inliers", o.pnp_min_inliers, 6, 100000);
-  o.pnp_max_tilt_error_deg = reader.get<double>("pnp_max_tilt_error_deg", o.pnp_max_tilt_error_deg);
-  requireInRange(reader, "pnp_max_tilt_error_deg", o.pnp_max_tilt_error_deg, 0.0, 180.0);
-  o.covisibility_neighbours = reader.get<int>("covisibility_neighbours", o.covisibility_neighbours);
-  requireInRange(reader, "covisibility_neighbours", o.covisibility_neighbours, 0, 100);
-  o.covisibility_min_points = reader.get<int>("covisibility_min_points", o.covisibility_min_points);
-  requireInRange(reader, "covisibility_min_points", o.covisibility_min_points, 1, 100000);
-  o.covisibility_min_ratio = reader.get<double>("covisibility_min_ratio", o.covisibility_min_ratio);
-  requireInRange(reader, "covisibility_min_ratio", o.covisibility_min_ratio, 0.0, 1.0);
-  o.covisibility_min_neighbours = reader.get<int>("covisibility_min_neighbours", o.covisibility_min_neighbours);
-  requireInRange(reader, "covisibility_min_neighbours", o.covisibility_min_neighbours, 1, 200);
-  o.covisibility_search_radius_px =
-      reader.get<double>("covisibility_search_radius_px", o.covisibility_search_radius_px);
-  requireInRange(reader, "covisibility_search_radius_px", o.covisibility_search_radius_px, 0.5, 200.0);
+  readInRange(reader, "match_predicted_level_tolerance", &o.match_predicted_level_tolerance, 0.0, 64.0);
+  readInRange(reader, "proximity_candidates", &o.proximity_candidates, 0, 1000);
+  readInRange(reader, "proximity_radius_m", &o.proximity_radius_m, 0.0, 1000.0);
+  readInRange(reader, "pnp_reprojection_px", &o.pnp_reprojection_px, 0.1, 100.0);
+  readInRange(reader, "pnp_iterations", &o.pnp_iterations, 1, 100000);
+  readInRange(reader, "pnp_confidence", &o.pnp_confidence, 0.5, 0.999999);
+  readInRange(reader, "pnp_min_inliers", &o.pnp_min_inliers, 6, 100000);
+  readInRange(reader, "pnp_max_tilt_error_deg", &o.pnp_max_tilt_error_deg, 0.0, 180.0);
+  readInRange(reader, "covisibility_neighbours", &o.covisibility_neighbours, 0, 100);
+  readInRange(reader, "covisibility_min_points", &o.covisibility_min_points, 1, 100000);
+  readInRange(reader, "covisibility_min_ratio", &o.covisibility_min_ratio, 0.0, 1.0);
+  readInRange(reader, "covisibility_min_neighbours", &o.covisibility_min_neighbours, 1, 200);
+  readInRange(reader, "covisibility_search_radius_px", &o.covisibility_search_radius_px, 0.5, 200.0);
   o.record_prefilter_rejections = reader.get<bool>("record_prefilter_rejections", o.record_prefilter_rejections);
   return o;
 }
@@ -354,15 +309,10 @@ PoseGraphManagerOptions PoseGraphManagerOptions::fromReader(const ConfigReader& 
   o.vocabulary_brief = reader.get<std::string>("vocabulary_brief", o.vocabulary_brief);
   if (o.vocabulary_brief.empty()) throw reader.error("vocabulary_brief", "must not be empty");
   o.synchronous = reader.get<bool>("synchronous", o.synchronous);
-  o.optimise_every_n_keyframes = reader.get<int>("optimise_every_n_keyframes", o.optimise_every_n_keyframes);
-  requireInRange(reader, "optimise_every_n_keyframes", o.optimise_every_n_keyframes, 1, 1000000);
-  o.magnetic_wait_s = reader.get<double>("magnetic_wait_s", o.magnetic_wait_s);
-  requireInRange(reader, "magnetic_wait_s", o.magnetic_wait_s, 0.0, 600.0);
-  o.geomagnetic_max_dt_s = reader.get<double>("geomagnetic_max_dt_s", o.geomagnetic_max_dt_s);
-  requireInRange(reader, "geomagnetic_max_dt_s", o.geomagnetic_max_dt_s, 0.0, 60.0);
-  o.signature_max_extrapolation_s =
-      reader.get<double>("signature_max_extrapolation_s", o.signature_max_extrapolation_s);
-  requireInRange(reader, "signature_max_extrapolation_s", o.signature_max_extrapolation_s, 0.0, 60.0);
+  readInRange(reader, "optimise_every_n_keyframes", &o.optimise_every_n_keyframes, 1, 1000000);
+  readInRange(reader, "magnetic_wait_s", &o.magnetic_wait_s, 0.0, 600.0);
+  readInRange(reader, "geomagnetic_max_dt_s", &o.geomagnetic_max_dt_s, 0.0, 60.0);
+  readInRange(reader, "signature_max_extrapolation_s", &o.signature_max_extrapolation_s, 0.0, 60.0);
   o.session_link_position_sigma_m = reader.get<double>("session_link_position_sigma_m", o.session_link_position_sigma_m);
   requirePositive(reader, "session_link_position_sigma_m", o.session_link_position_sigma_m);
   o.session_link_position_sigma_per_s =

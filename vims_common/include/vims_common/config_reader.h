@@ -78,6 +78,13 @@ class ConfigReader {
 void requirePositive(const ConfigReader& reader, const std::string& key, double value);
 void requireNonNegative(const ConfigReader& reader, const std::string& key, double value);
 void requireInRange(const ConfigReader& reader, const std::string& key, double value, double lo, double hi);
+/// Overwrites *value with the key's value when present, then requires it in [lo, hi] (the
+/// default too): the read-and-check pair of every bounded option.
+template <typename T>
+void readInRange(const ConfigReader& reader, const std::string& key, T* value, double lo, double hi) {
+  *value = reader.get<T>(key, *value);
+  requireInRange(reader, key, static_cast<double>(*value), lo, hi);
+}
 
 // ---- template implementation ----
 template <typename T>
