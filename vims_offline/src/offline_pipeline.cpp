@@ -64,8 +64,6 @@ double threadCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-double sumSeconds(const std::vector<double>& ms) { return 1e-3 * std::accumulate(ms.begin(), ms.end(), 0.0); }
-
 /// Nearest-rank percentile (q in [0, 1]); 0 for an empty set.
 double percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
@@ -224,16 +222,16 @@ void OfflinePipeline::timePoseGraph(bool is_keyframe, Call&& call) {
     const PoseGraphTimings timings = pose_graph_->timings(pose_graph_solves_seen_);
     double solve_ms = 0.0;
     for (const OptimisationRecord& solve : timings.solves) {
-      pose_graph_optimisation_ms_.push_back(solve.solve_ms);
+      pose_graph_optimisation_ms_.add(solve.solve_ms);
       solve_ms += solve.solve_ms;
     }
     pose_graph_solves_seen_ += timings.solves.size();
     if (is_keyframe)
-      place_recognition_ms_.push_back(std::max(0.0, ms - solve_ms));
+      place_recognition_ms_.add(std::max(0.0, ms - solve_ms));
     else
       pose_graph_other_ms_ += std::max(0.0, ms - solve_ms);
   } else if (is_keyframe) {
-    place_recognition_ms_.push_back(ms);
+    place_recognition_ms_.add(ms);
   } else {
     pose_graph_other_ms_ += ms;
   }
@@ -259,7 +257,7 @@ void OfflinePipeline::onImage(const CameraFrame& frame) {
 }
 
 void OfflinePipeline::feedTracked(const TrackedResult& tracked) {
-  frontend_ms_.push_back(tracked.ms);
+  frontend_ms_.add(tracked.ms);
   frontend_cpu_s_ += tracked.cpu_s;
   const double cpu_start = threadCpuSeconds();
   estimator_->feedFrame(tracked.tracked, tracked.frame.image);
@@ -273,7 +271,7 @@ void OfflinePipeline::feedTrackedFrames() {
 
 void OfflinePipeline::drainEstimator() {
   for (const VioFrameResult& r : estimator_->takeFrameResults()) {
-    backend_ms_.push_back(r.backend_ms);
+    backend_ms_.add(r.backend_ms);
     if (r.status == VioStatus::kWaitingForImu || r.status == VioStatus::kReset) continue;
     // vio.tum: the body pose at the image stamp as recorded (the estimator moves its state from
     // the td-corrected exposure time to the stamp), so the file lives on the bag clock.
@@ -309,7 +307,7 @@ void OfflinePipeline::onMag(const MagSample& sample) {
   geomagnetic_samples_.clear();
   const Clock::time_point start = Clock::now();
   signature_extractor_->feedMag(sample, &signature_windows_, &geomagnetic_samples_);
-  magnetometer_ms_.push_back(millisecondsSince(start));
+  magnetometer_ms_.add(millisecondsSince(start));
   for (const auto& window : signature_windows_) {
     signature_csv_->write(window);
     if (!pose_graph_) continue;
@@ -384,22 +382,22 @@ OfflineSummary OfflinePipeline::run() {
   drainEstimator();
   vio_tum_->flush();
   if (pose_graph_) finishPoseGraph(&summary);
-  summary.frontend_ms_p50 = percentile(frontend_ms_, 0.5);
-  summary.frontend_ms_p99 = percentile(frontend_ms_, 0.99);
-  summary.backend_ms_p50 = percentile(backend_ms_, 0.5);
-  summary.backend_ms_p99 = percentile(backend_ms_, 0.99);
-  summary.magnetometer_ms_p50 = percentile(magnetometer_ms_, 0.5);
-  summary.magnetometer_ms_p99 = percentile(magnetometer_ms_, 0.99);
-  summary.place_recognition_ms_p50 = percentile(place_recognition_ms_, 0.5);
-  summary.place_recognition_ms_p99 = percentile(place_recognition_ms_, 0.99);
-  summary.pose_graph_optimisation_ms_p50 = percentile(pose_graph_optimisation_ms_, 0.5);
-  summary.pose_graph_optimisation_ms_p99 = percentile(pose_graph_optimisation_ms_, 0.99);
-  summary.pose_graph_optimisation_calls = static_cast<long>(pose_graph_optimisation_ms_.size());
-  summary.frontend_total_s = sumSeconds(frontend_ms_);
-  summary.backend_total_s = sumSeconds(backend_ms_);
-  summary.magnetometer_total_s = sumSeconds(magnetometer_ms_);
+  summary.frontend_ms_p50 = frontend_ms_.percentile(0.5);
+  summary.frontend_ms_p99 = frontend_ms_.percentile(0.99);
+  summary.backend_ms_p50 = backend_ms_.percentile(0.5);
+  summary.backend_ms_p99 = backend_ms_.percentile(0.99);
+  summary.magnetometer_ms_p50 = magnetometer_ms_.percentile(0.5);
+  summary.magnetometer_ms_p99 = magnetometer_ms_.percentile(0.99);
+  summary.place_recognition_ms_p50 = place_recognition_ms_.percentile(0.5);
+  summary.place_recognition_ms_p99 = place_recognition_ms_.percentile(0.99);
+  summary.pose_graph_optimisation_ms_p50 = pose_graph_optimisation_ms_.percentile(0.5);
+  summary.pose_graph_optimisation_ms_p99 = pose_graph_optimisation_ms_.percentile(0.99);
+  summary.pose_graph_optimisation_calls = static_cast<long>(pose_graph_optimisation_ms_.count());
+  summary.frontend_total_s = 1e-3 * frontend_ms_.sum();
+  summary.backend_total_s = 1e-3 * backend_ms_.sum();
+  summary.magnetometer_total_s = 1e-3 * magnetometer_ms_.sum();
   summary.pose_graph_total_s =
-      sumSeconds(place_recognition_ms_) + sumSeconds(pose_graph_optimisation_ms_) + 1e-3 * pose_graph_other_ms_;
+      1e-3 * place_recognition_ms_.sum() + 1e-3 * pose_graph_optimisation_ms_.sum() + 1e-3 * pose_graph_other_ms_;
   summary.threads = options_.threads;
   summary.frontend_cpu_s = frontend_cpu_s_;
   summary.backend_cpu_s = backend_cpu_s_;

@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "vims_common/latency_histogram.h"
 #include "vims_common/log.h"
 #include "vims_common/trajectory_io.h"
 #include "vims_estimator/estimator_options.h"
@@ -170,11 +171,12 @@ class OfflinePipeline {
   std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs tracker_, inline or on its thread
   std::unique_ptr<VioEstimator> estimator_;
   std::unique_ptr<TumWriter> vio_tum_;
-  std::vector<double> frontend_ms_;
-  std::vector<double> backend_ms_;
-  std::vector<double> magnetometer_ms_;
-  std::vector<double> place_recognition_ms_;
-  std::vector<double> pose_graph_optimisation_ms_;
+  // Per-call latencies [ms] in fixed-size histograms: memory must not grow with the run's length.
+  LatencyHistogram frontend_ms_;
+  LatencyHistogram backend_ms_;
+  LatencyHistogram magnetometer_ms_;
+  LatencyHistogram place_recognition_ms_;
+  LatencyHistogram pose_graph_optimisation_ms_;
   double frontend_cpu_s_ = 0.0;
   double backend_cpu_s_ = 0.0;
   double pose_graph_other_ms_ = 0.0;  ///< pose-graph calls in neither bucket (signatures, geomagnetic field)

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "vims_magnetometer/signature_extractor.h"
+#include "vims_pose_graph/known_vertical_pose.h"
 
 namespace vims {
 
@@ -169,23 +170,6 @@ VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points
     }
   }
   return best_distance < 257 ? best : keypoints.size();
-}
-
-/// RANSAC iterations that suffice to reject a candidate: had `min_inliers` of the `num_matches`
-/// been inliers, a 4-point sample would have been all-inlier at least once in k iterations with
-/// probability `confidence` (k = log(1 - confidence) / log(1 - w^4), w = min_inliers /
-/// num_matches), taken three times because a clean sample of noisy points does not always give a
-/// model whose consensus reaches the whole inlier set. Once an acceptable consensus is found,
-/// OpenCV's adaptive stop ends the search within k iterations anyway; the cap only shortens the
-/// search for consensus sets that are not there (2/3 of all verifications end at PnP, and each
-/// ran all pnp_iterations).
-int ransacIterationsToReject(size_t num_matches, int min_inliers, double confidence) {
-  if (num_matches == 0) return 1;
-  const double w = std::min(1.0, static_cast<double>(min_inliers) / static_cast<double>(num_matches));
-  const double clean = std::pow(w, 4);
-  if (clean >= 1.0) return 1;
-  const double k = std::log(1.0 - confidence) / std::log(1.0 - clean);
-  return static_cast<int>(std::min(1e9, std::ceil(3.0 * k)));
 }
 
 /// Whether any keypoint of `submap` within sqrt(radius2) px of `uv` is within max_distance of
@@ -383,6 +367,33 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   }
   const double focal = 0.5 * (camera_.fx + camera_.fy);
   const double threshold = options_.pnp_reprojection_px / focal;
+  // Known-vertical test first: the candidate camera's tilt is known from its VIO attitude, so a
+  // 2-point RANSAC (yaw + position) rules out a consensus of pnp_min_inliers in ~1/w^2 samples,
+  // where the P3P RANSAC below needs ~1/w^4 (most candidates end at PnP). Its threshold is wider:
+  // it is only a necessary condition, and a VIO tilt error that P3P would absorb adds to the
+  // residuals here (docs/pose_graph.md, "Known-vertical consensus").
+  if (options_.pnp_vertical_check_threshold_scale > 0.0) {
+    std::vector<Eigen::Vector3d> points_3d;
+    std::vector<Eigen::Vector2d> normalized;
+    points_3d.reserve(matches.size());
+    normalized.reserve(matches.size());
+    for (const PointMatch& m : matches) {
+      points_3d.push_back(points.p_odom[m.point]);
+      normalized.push_back(sub.normalized[m.keypoint]);
+    }
+    const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_b_c_).linear();
+    const int samples = std::min(options_.pnp_iterations,
+                                 ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
+                                                          options_.pnp_confidence, /*sample_size=*/2));
+    const KnownVerticalConsensus consensus =
+        knownVerticalConsensus(points_3d, normalized, A, options_.pnp_vertical_check_threshold_scale * threshold,
+                               samples, options_.pnp_min_inliers);
+    if (consensus.inliers < options_.pnp_min_inliers) {
+      r.num_inliers = consensus.inliers;
+      r.stage = LoopStage::kPnp;
+      return r;
+    }
+  }
   const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
   cv::Mat rvec, tvec;
   std::vector<int> ransac_inliers;
@@ -391,8 +402,13 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     // AP3P hypotheses from 4-point samples (a clean sample is far likelier than EPnP's 5 at the
     // 30-50 % inlier rates of a seabed revisit), EPnP on all inliers of the best one; OpenCV's
     // RANSAC uses a fixed seed, so the result is deterministic.
-    const int iterations = std::min(options_.pnp_iterations, ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
-                                                                                       options_.pnp_confidence));
+    // The cap: had pnp_min_inliers of the matches been inliers, a clean 4-point sample would have
+    // come with probability pnp_confidence (x3, see ransacIterationsToReject). Once an acceptable
+    // consensus is found, OpenCV's adaptive stop ends the search within that many anyway; the cap
+    // only shortens the search for consensus sets that are not there.
+    const int iterations = std::min(options_.pnp_iterations,
+                                    ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
+                                                             options_.pnp_confidence, /*sample_size=*/4));
     ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, iterations,
                             static_cast<float>(threshold), options_.pnp_confidence, ransac_inliers, cv::SOLVEPNP_AP3P);
   } catch (const cv::Exception&) {

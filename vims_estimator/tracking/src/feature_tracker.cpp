@@ -157,7 +157,11 @@ TrackedFrame FeatureTracker::process(const CameraFrame& frame) {
     tracking_image = &flattened_;
   }
   const cv::Size window(options_.klt_window_px, options_.klt_window_px);
-  cv::buildOpticalFlowPyramid(*tracking_image, current_pyramid_, window, options_.klt_max_level);
+  // With the Scharr derivatives stored in the pyramid (each level's image, then its derivatives):
+  // calcOpticalFlowPyrLK would otherwise recompute them for its first image on every call, and
+  // every frame is that first image twice (backward check now, forward tracking next frame).
+  cv::buildOpticalFlowPyramid(*tracking_image, current_pyramid_, window, options_.klt_max_level,
+                              /*withDerivatives=*/true);
   stats.preprocess_ms = millisecondsSince(start);
 
   // ---- 3./4. track the previous features ----

@@ -256,6 +256,13 @@ struct LoopDetectorOptions {
   /// sigma. tank750 with the scale-aware matching: the loops found 5-10 deg off were all tilt
   /// errors (0.3-0.8 m off). 0 disables.
   double pnp_max_tilt_error_deg = 2.0;
+  /// Before the P3P RANSAC, a 2-point RANSAC with the candidate camera's tilt taken from its VIO
+  /// attitude (only yaw and position unknown) must find pnp_min_inliers within this many times
+  /// pnp_reprojection_px, or the candidate is rejected at the PnP stage. It needs ~1/w^2 samples
+  /// to rule a consensus out where P3P needs ~1/w^4 (w: inlier rate). Wider than the PnP
+  /// threshold because it is only a necessary condition: the VIO's tilt error, which P3P
+  /// absorbs, adds to its residuals. 0 disables.
+  double pnp_vertical_check_threshold_scale = 2.0;
 
   // --- covisibility
   /// The match's temporal neighbours (same session, up to this many keyframes with a visual
