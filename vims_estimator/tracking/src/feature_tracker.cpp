@@ -306,7 +306,7 @@ void FeatureTracker::detectNewFeatures(TrackerStats* stats) {
   stats->quality_level = options_.quality_level;
 
   const int wanted = options_.max_features - static_cast<int>(tracks_.size());
-  if (wanted > 0) {
+  if (wanted > 0 && (wanted >= options_.detect_min_missing || tracks_.empty())) {
     // Only free regions can take a corner: skipping the rest keeps the candidate list (and its
     // sort) short when most of the image is already covered by tracks.
     CornerCandidates candidates = findCornerCandidates(detection_image_, options_.border_px, options_.min_corner_response,

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <string>
 #include <type_traits>
 
 namespace vims {
@@ -16,6 +17,7 @@ void forEachOption(Options& o, Visitor&& visit) {
   visit("max_features", o.max_features, 1, 5000);
   visit("min_distance_px", o.min_distance_px, 1.0, 200.0);
   visit("border_px", o.border_px, 0, 100);
+  visit("detect_min_missing", o.detect_min_missing, 1, 5000);
   visit("quality_level", o.quality_level, 1e-6, 1.0);
   visit("min_quality_level", o.min_quality_level, 1e-6, 1.0);
   visit("quality_decrease_factor", o.quality_decrease_factor, 0.01, 0.99);
@@ -48,6 +50,10 @@ std::string formatNumber(double value) {
 /// Checks relations between options; `fail(key, message)` must throw.
 template <typename Fail>
 void checkRelations(const TrackerOptions& o, Fail&& fail) {
+  if (o.detect_min_missing > o.max_features) {
+    fail("detect_min_missing", "must be <= max_features (" + std::to_string(o.max_features) + "), got " +
+                                   std::to_string(o.detect_min_missing));
+  }
   if (o.min_quality_level > o.quality_level) {
     fail("min_quality_level", "must be <= quality_level (" + formatNumber(o.quality_level) + "), got " +
                                   formatNumber(o.min_quality_level));
