@@ -145,13 +145,13 @@ TrackedFrame FeatureTracker::process(const CameraFrame& frame) {
   // stands out of the noise. KLT tracks on the flattened image, whose grey levels move with the
   // scene (flattenIllumination). Detecting on the flattened image too picked noise corners in
   // the dark image corners: 2.8x as many tracks started and died on tank30 (docs/frontends.md).
-  if (options_.clahe_enabled) {
-    clahe_->apply(frame.image, detection_image_);
-  } else {
-    frame.image.copyTo(detection_image_);
-  }
+  // With illumination flattening, the detection image is only needed on the frames that detect
+  // (detectNewFeatures makes it then); without, KLT tracks on it too.
+  detection_image_ready_ = false;
   const cv::Mat* tracking_image = &detection_image_;
-  if (options_.illumination_sigma_px > 0.0) {
+  if (options_.illumination_sigma_px <= 0.0) {
+    makeDetectionImage(frame.image);
+  } else {
     flattenIllumination(frame.image, options_.illumination_sigma_px, kIlluminationDownsample,
                         options_.illumination_target_mean, &flattened_, &illumination_buffers_);
     tracking_image = &flattened_;
@@ -170,7 +170,7 @@ TrackedFrame FeatureTracker::process(const CameraFrame& frame) {
   }
 
   // ---- 5. spread and refill ----
-  detectNewFeatures(&stats);
+  detectNewFeatures(frame.image, &stats);
   // The current pyramid becomes the previous one; the old previous one's memory is reused next frame.
   std::swap(previous_pyramid_, current_pyramid_);
 
@@ -279,11 +279,21 @@ void FeatureTracker::trackIntoCurrentFrame(double dt, TrackerStats* stats) {
   stats->ransac_ms = millisecondsSince(stage_start);
 }
 
-void FeatureTracker::detectNewFeatures(TrackerStats* stats) {
+void FeatureTracker::makeDetectionImage(const cv::Mat& image) {
+  if (detection_image_ready_) return;
+  if (options_.clahe_enabled) {
+    clahe_->apply(image, detection_image_);
+  } else {
+    image.copyTo(detection_image_);
+  }
+  detection_image_ready_ = true;
+}
+
+void FeatureTracker::detectNewFeatures(const cv::Mat& image, TrackerStats* stats) {
   const Clock::time_point stage_start = Clock::now();
   // Free = 255. Existing tracks claim their neighbourhood first, longest first, so a new
   // corner never crowds out a feature the estimator already has many observations of.
-  occupancy_.create(detection_image_.size(), CV_8UC1);
+  occupancy_.create(image.size(), CV_8UC1);
   occupancy_.setTo(cv::Scalar(255));
   cv::Mat& occupancy = occupancy_;
   std::vector<cv::Point2f> pixels(tracks_.size());
@@ -309,6 +319,7 @@ void FeatureTracker::detectNewFeatures(TrackerStats* stats) {
   if (wanted > 0 && (wanted >= options_.detect_min_missing || tracks_.empty())) {
     // Only free regions can take a corner: skipping the rest keeps the candidate list (and its
     // sort) short when most of the image is already covered by tracks.
+    makeDetectionImage(image);
     CornerCandidates candidates = findCornerCandidates(detection_image_, options_.border_px, options_.min_corner_response,
                                                        options_.min_quality_level, occupancy, &corner_buffers_);
     CornerSelectionParams params;

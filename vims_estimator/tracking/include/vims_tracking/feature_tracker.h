@@ -119,8 +119,11 @@ class FeatureTracker {
   /// KLT, forward-backward check and RANSAC of tracks_ from previous_pyramid_ into
   /// current_pyramid_; updates tracks_ and stats.
   void trackIntoCurrentFrame(double dt, TrackerStats* stats);
-  /// Thins tracks_ by distance and adds new corners of detection_image_ in the free regions.
-  void detectNewFeatures(TrackerStats* stats);
+  /// Thins tracks_ by distance and adds new corners of the detection image of `image` (the
+  /// frame's raw image) in the free regions.
+  void detectNewFeatures(const cv::Mat& image, TrackerStats* stats);
+  /// detection_image_ from the raw image (CLAHE or a copy), once per frame.
+  void makeDetectionImage(const cv::Mat& image);
 
   CameraModel camera_;
   TrackerOptions options_;
@@ -133,6 +136,7 @@ class FeatureTracker {
   // CornerResponseBuffers); their content never carries over.
   std::vector<cv::Mat> current_pyramid_;
   cv::Mat detection_image_;  ///< CLAHE (or the raw image): corners are detected here
+  bool detection_image_ready_ = false;  ///< detection_image_ is the current frame's
   cv::Mat flattened_;        ///< flattenIllumination: KLT tracks here
   IlluminationBuffers illumination_buffers_;
   cv::Mat occupancy_;
