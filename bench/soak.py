@@ -16,7 +16,7 @@ submaps it stored, and RSS minus map: what the process holds besides the map (bu
 sliding window, queues, allocator slack), which must stop growing whatever the map does.
 
     bench/soak.py --work /work/data/faults/soak [--duration 3600] [--seed 1] [--reuse DIR]
-                  [--interval 10] [--build _build] [--keep-sequence] [--config FILE]
+                  [--interval 10] [--build _build] [--keep-sequence] [--config FILE] [--analyse-only]
 
 Documented in docs/benchmarks_growth.md.
 """
@@ -69,6 +69,8 @@ def main():
     ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
     ap.add_argument("--keep-sequence", action="store_true")
     ap.add_argument("--config", help="passed to vims_offline --config (e.g. pose-graph options to compare)")
+    ap.add_argument("--analyse-only", action="store_true",
+                    help="report from an earlier run's WORK/soak.csv, WORK/out/summary.yaml and map (no new run)")
     args = ap.parse_args()
 
     bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
@@ -95,12 +97,31 @@ def main():
     start_time = float(truth.get("start_time", 0.0))
 
     out = os.path.join(work, "out")
+    map_file = os.path.join(out, "map.vimsmap")
+    if args.analyse_only:
+        samples, wall = read_samples(os.path.join(work, "soak.csv"))
+    else:
+        samples, wall = run_and_sample(args, sequence, out, map_file, work, bin_dir, bag_bytes, duration)
+    report(args, samples, wall, out, map_file, work, bin_dir, duration, start_time)
+    if not args.reuse and not args.keep_sequence and not args.analyse_only:
+        shutil.rmtree(sequence, ignore_errors=True)
+
+
+def read_samples(path):
+    """Samples of an earlier run's soak.csv and its wall time."""
+    with open(path) as f:
+        samples = [(float(r["wall_s"]), float(r["bag_fraction"]), float(r["sequence_s"]), float(r["rss_mb"]),
+                    float(r["hwm_mb"])) for r in csv.DictReader(f)]
+    return samples, samples[-1][0] if samples else 0.0
+
+
+def run_and_sample(args, sequence, out, map_file, work, bin_dir, bag_bytes, duration):
+    """Runs vims_offline (saving the map) and samples its memory; writes WORK/soak.csv."""
     shutil.rmtree(out, ignore_errors=True)
     print(f"[soak] vims_offline on {sequence}, sampling every {args.interval:g} s ...", flush=True)
     start = time.monotonic()
     samples = []
     with open(os.path.join(work, "offline.log"), "w") as log:
-        map_file = os.path.join(out, "map.vimsmap")
         cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", sequence, "--out", out, "--map-save", map_file]
         if args.config:
             cmd += ["--config", os.path.abspath(args.config)]
@@ -120,6 +141,11 @@ def main():
         writer.writerow(["wall_s", "bag_fraction", "sequence_s", "rss_mb", "hwm_mb"])
         for s in samples:
             writer.writerow([f"{s[0]:.1f}", f"{s[1]:.4f}", f"{s[2]:.1f}", f"{s[3]:.1f}", f"{s[4]:.1f}"])
+    return samples, wall
+
+
+def report(args, samples, wall, out, map_file, work, bin_dir, duration, start_time):
+    """Prints the per-quarter table (RSS, the map's submap memory, RSS minus the map)."""
     with open(os.path.join(out, "summary.yaml")) as f:
         summary = yaml.safe_load(f)
 
@@ -143,10 +169,10 @@ def main():
             mb, stored = cumulative, stored + visual
         return mb, stored
 
-    def rss_at(seq_s):
-        """RSS of the last sample at or before sequence time seq_s."""
+    def sample_at(seq_s):
+        """The last sample at or before sequence time seq_s (the first one if none)."""
         before = [s for s in samples if s[2] <= seq_s]
-        return before[-1][3] if before else float("nan")
+        return before[-1] if before else samples[0]
 
     print(f"[soak] {duration:g} s of sequence in {wall:.0f} s wall; {len(samples)} samples; "
           f"peak RSS {max(s[4] for s in samples):.1f} MB; keyframes {summary['pose_graph']['keyframes']}")
@@ -158,17 +184,25 @@ def main():
     # Quarter 1 starts at the first sample after start-up (1 % of the bag read: the vocabulary
     # and the first buffers are loaded), not at the empty process.
     started = [s for s in samples if s[1] > 0.01] or samples
+    # Quarter 4 ends at the last sample taken while the bag was still being read: after it come
+    # the end-of-data steps (the final whole-graph solve, writing the outputs and the map), whose
+    # transient memory is reported on its own line below.
+    reading = [s for s in samples if s[1] < 0.999] or samples
     for q in range(4):
-        t0 = started[0][2] if q == 0 else quarters[q]
-        t1 = samples[-1][2] if q == 3 else quarters[q + 1] - 1e-6
-        a = started[0][3] if q == 0 else rss_at(t0)
-        b = samples[-1][3] if q == 3 else rss_at(t1)
-        (map_a, stored_a), (map_b, stored_b) = map_at(t0), map_at(t1)
-        span = (quarters[q + 1] - quarters[q]) / 1000.0
+        # Each end is a sample, and the map is taken at that sample's own sequence time (a sample
+        # comes every ~100 s of sequence at 10x real time).
+        sa = started[0] if q == 0 else sample_at(quarters[q])
+        sb = reading[-1] if q == 3 else sample_at(quarters[q + 1] - 1e-6)
+        a, b = sa[3], sb[3]
+        (map_a, stored_a), (map_b, stored_b) = map_at(sa[2]), map_at(sb[2])
+        span = max(sb[2] - sa[2], 1e-9) / 1000.0
         growth.append((a, b))
         other.append((a - map_a, b - map_b))
         print(f"| {q + 1} | {quarters[q]:.0f}-{quarters[q + 1]:.0f} | {b:.1f} | {(b - a) / span:.1f} | {map_b:.1f} "
               f"| {stored_b - stored_a} | {b - map_b:.1f} | {((b - map_b) - (a - map_a)) / span:.1f} |")
+    print(f"[soak] quarter 4 ends at {reading[-1][2]:.0f} s of sequence (last sample while reading); end of data "
+          f"(final solve, outputs, map file): RSS {reading[-1][3]:.1f} -> {samples[-1][3]:.1f} MB, "
+          f"peak {max(s[4] for s in samples):.1f} MB")
     heap = summary.get("heap_mb", {})
     if heap:
         print(f"[soak] at the end: heap in use {heap['in_use']:.1f} MB (map submaps {map_rows[-1][1]:.1f} MB), "
@@ -178,8 +212,6 @@ def main():
         verdict = "stops growing" if pct < args.plateau_pct else "still growing"
         print(f"[soak] last quarter: {label} {a:.1f} -> {b:.1f} MB ({pct:+.1f} %): {verdict} "
               f"(plateau threshold {args.plateau_pct:g} %)")
-    if not args.reuse and not args.keep_sequence:
-        shutil.rmtree(sequence, ignore_errors=True)
 
 
 if __name__ == "__main__":
