@@ -283,6 +283,41 @@ TEST(FeatureTracker, IdsPersistAlongTracksAndAreNeverReused) {
   EXPECT_EQ(longest, 8);
 }
 
+TEST(FeatureTracker, DetectsNewCornersOnlyOnceEnoughFeaturesAreMissing) {
+  // A vehicle drifting over the floor: features leave at the border every frame. With
+  // detect_min_missing = 15, frames that lost fewer keep their tracks and detect nothing; with 1
+  // (detection on every frame with a free slot) every such frame refills.
+  const cv::Mat texture = makeTexture(kCanvasSize, 4);
+  for (int min_missing : {15, 1}) {
+    vims::TrackerOptions options;
+    options.detect_min_missing = min_missing;
+    vims::FeatureTracker tracker(pinholeCalibration(), options);
+    int frames_skipping = 0, frames_detecting = 0;
+    for (int k = 0; k < 16; ++k) {
+      ImagePose pose;
+      pose.shift = Eigen::Vector2d(6.0 * k, 2.0 * k);
+      const vims::TrackedFrame frame = tracker.process(frameAt(0.1 * k, renderDark(texture, pose, 400 + k)));
+      ASSERT_TRUE(frame.accepted());
+      if (k == 0) continue;
+      const int missing = options.max_features - frame.stats.tracked;
+      if (missing >= min_missing) {
+        EXPECT_GT(frame.stats.detected, 0) << "frame " << k << ": " << missing << " missing";
+        ++frames_detecting;
+      } else {
+        EXPECT_EQ(frame.stats.detected, 0) << "frame " << k << ": " << missing << " missing";
+        EXPECT_EQ(frame.features.size(), static_cast<std::size_t>(frame.stats.tracked));
+        if (missing > 0) ++frames_skipping;
+      }
+    }
+    if (min_missing == 15) {
+      EXPECT_GT(frames_skipping, 0);  // frames that lost a few tracks and did not detect
+      EXPECT_GT(frames_detecting, 0);
+    } else {
+      EXPECT_EQ(frames_skipping, 0);
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Outlier rejection
 // ---------------------------------------------------------------------------------------------

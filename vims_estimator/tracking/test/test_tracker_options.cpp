@@ -37,6 +37,10 @@ TEST(TrackerOptions, RejectsOutOfRangeNamingTheKey) {
   EXPECT_NE(errorOf("tracker: {ransac_confidence: 1.5}").find("tracker.ransac_confidence"), std::string::npos);
   EXPECT_NE(errorOf("tracker: {fb_max_error_px: .nan}").find("tracker.fb_max_error_px"), std::string::npos);
   EXPECT_NE(errorOf("tracker: {klt_max_level: -1}").find("tracker.klt_max_level"), std::string::npos);
+  EXPECT_NE(errorOf("tracker: {detect_min_missing: 0}").find("tracker.detect_min_missing"), std::string::npos);
+  // More missing features than the budget holds would never detect again.
+  EXPECT_NE(errorOf("tracker: {max_features: 10, detect_min_missing: 11}").find("detect_min_missing"),
+            std::string::npos);
 }
 
 TEST(TrackerOptions, RejectsWrongTypeNamingTheKey) {
