@@ -8,7 +8,7 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   r.rejectUnknownKeys({"window_size", "keyframe_parallax_px", "keyframe_min_tracked", "max_solver_iterations",
                        "max_solver_time_s", "reprojection_loss_scale", "sonar_loss_scale", "min_feature_depth_m",
                        "max_feature_depth_m", "triangulation_min_angle_deg", "outlier_reprojection_px", "use_sonar",
-                       "sonar_max_interpolation_gap_s", "sonar_min_range_std_m", "estimate_td", "td_initial_s",
+                       "sonar_max_interpolation_gap_s", "sonar_wait_s", "sonar_min_range_std_m", "estimate_td", "td_initial_s",
                        "max_abs_td_s", "td_min_image_speed_px_s", "init_gravity_window_s", "init_static_gyro_std", "init_static_accel_std",
                        "init_velocity_sigma", "init_accel_bias_sigma", "init_gyro_bias_sigma", "imu_max_gap_s",
                        "max_frame_wait_s", "failure_max_accel_bias", "failure_max_gyro_bias",
@@ -43,6 +43,8 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   o.use_sonar = r.get<bool>("use_sonar", o.use_sonar);
   o.sonar_max_interpolation_gap_s = r.get<double>("sonar_max_interpolation_gap_s", o.sonar_max_interpolation_gap_s);
   requirePositive(r, "sonar_max_interpolation_gap_s", o.sonar_max_interpolation_gap_s);
+  o.sonar_wait_s = r.get<double>("sonar_wait_s", o.sonar_wait_s);
+  requireInRange(r, "sonar_wait_s", o.sonar_wait_s, 0.0, 5.0);
   o.sonar_min_range_std_m = r.get<double>("sonar_min_range_std_m", o.sonar_min_range_std_m);
   requirePositive(r, "sonar_min_range_std_m", o.sonar_min_range_std_m);
   o.estimate_td = r.get<bool>("estimate_td", o.estimate_td);
@@ -96,7 +98,7 @@ std::string EstimatorOptions::toYaml() const {
      << "\nmax_feature_depth_m: " << max_feature_depth_m
      << "\ntriangulation_min_angle_deg: " << triangulation_min_angle_deg
      << "\noutlier_reprojection_px: " << outlier_reprojection_px << "\nuse_sonar: " << (use_sonar ? "true" : "false")
-     << "\nsonar_max_interpolation_gap_s: " << sonar_max_interpolation_gap_s
+     << "\nsonar_max_interpolation_gap_s: " << sonar_max_interpolation_gap_s << "\nsonar_wait_s: " << sonar_wait_s
      << "\nsonar_min_range_std_m: " << sonar_min_range_std_m << "\nestimate_td: " << (estimate_td ? "true" : "false")
      << "\ntd_initial_s: " << td_initial_s << "\nmax_abs_td_s: " << max_abs_td_s << "\ntd_min_image_speed_px_s: " << td_min_image_speed_px_s
      << "\ninit_gravity_window_s: " << init_gravity_window_s << "\ninit_static_gyro_std: " << init_static_gyro_std

@@ -226,6 +226,7 @@ void VioEstimator::feedSonar(const SonarFilterResult& result) {
     else return;
   }
   sonar_.emplace_back(result.t, result.filtered);
+  processPendingFrames();  // a frame may have been waiting for this range
 }
 
 void VioEstimator::feedFrame(const TrackedFrame& frame, const cv::Mat& image) {
@@ -303,6 +304,11 @@ void VioEstimator::processPendingFrames() {
     const double t_stamp = pending_.front().first.t;
     const double t_needed = std::max(t_stamp, t_stamp - td_[0]);
     if (imu_.back().t < t_needed) return;
+    // The range at the frame's time may still be on its way (online it comes a node hop after
+    // the image): wait for a range at or after the frame, or for the IMU to be sonar_wait_s past it.
+    if (options_.use_sonar && options_.sonar_wait_s > 0.0 && (sonar_.empty() || sonar_.back().first < t_needed) &&
+        imu_.back().t < t_needed + options_.sonar_wait_s)
+      return;
     auto [frame, image] = std::move(pending_.front());
     pending_.pop_front();
     processFrame(frame, image);

@@ -70,6 +70,12 @@ struct EstimatorOptions {
   /// [s] The filtered range is interpolated to a frame time only from samples within this time of
   /// it (the sonar runs at 10 Hz, so 0.25 s tolerates one missing sample).
   double sonar_max_interpolation_gap_s = 0.25;
+  /// [s] A frame waits for a filtered range at or after its time until the IMU is this far past
+  /// it. The filtered ranges come one node later than the images on the AUV (the sonar filter
+  /// node), so without the wait a frame took the previous range there and the interpolated one
+  /// offline; with it both runs give every frame the same range. A sonar dropout delays each
+  /// frame's processing by this much IMU time, no more. 0 = no wait.
+  double sonar_wait_s = 0.2;
   /// [m] Floor on the range noise used for the factor (the sequence's range_noise_std may be 0
   /// for ideal simulations; 1 cm is the resolution of a typical altimeter).
   double sonar_min_range_std_m = 0.01;

@@ -227,6 +227,7 @@ class EstimatorNode {
         processImage(*frame);
       } else {
         estimator_.feedSonar(std::get<vims::SonarFilterResult>(*event));
+        drainEstimator();  // a frame waiting for this range may have been processed
       }
     }
     drainEstimator();
