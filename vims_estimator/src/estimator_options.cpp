@@ -43,8 +43,7 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   o.use_sonar = r.get<bool>("use_sonar", o.use_sonar);
   o.sonar_max_interpolation_gap_s = r.get<double>("sonar_max_interpolation_gap_s", o.sonar_max_interpolation_gap_s);
   requirePositive(r, "sonar_max_interpolation_gap_s", o.sonar_max_interpolation_gap_s);
-  o.sonar_wait_s = r.get<double>("sonar_wait_s", o.sonar_wait_s);
-  requireInRange(r, "sonar_wait_s", o.sonar_wait_s, 0.0, 5.0);
+  readInRange(r, "sonar_wait_s", &o.sonar_wait_s, 0.0, 5.0);
   o.sonar_min_range_std_m = r.get<double>("sonar_min_range_std_m", o.sonar_min_range_std_m);
   requirePositive(r, "sonar_min_range_std_m", o.sonar_min_range_std_m);
   o.estimate_td = r.get<bool>("estimate_td", o.estimate_td);

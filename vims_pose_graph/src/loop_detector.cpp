@@ -356,14 +356,13 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
 
   // PnP on undistorted normalised coordinates (camera matrix = identity): the query's points in
   // its VIO frame, the candidate's keypoints -> the candidate camera's pose in that frame.
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> image;
-  object.reserve(matches.size());
-  image.reserve(matches.size());
+  std::vector<Eigen::Vector3d> points_3d;
+  std::vector<Eigen::Vector2d> normalized;
+  points_3d.reserve(matches.size());
+  normalized.reserve(matches.size());
   for (const PointMatch& m : matches) {
-    const Eigen::Vector3d& p = points.p_odom[m.point];
-    object.emplace_back(p.x(), p.y(), p.z());
-    image.emplace_back(sub.normalized[m.keypoint].x(), sub.normalized[m.keypoint].y());
+    points_3d.push_back(points.p_odom[m.point]);
+    normalized.push_back(sub.normalized[m.keypoint]);
   }
   const double focal = 0.5 * (camera_.fx + camera_.fy);
   const double threshold = options_.pnp_reprojection_px / focal;
@@ -373,14 +372,6 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   // it is only a necessary condition, and a VIO tilt error that P3P would absorb adds to the
   // residuals here (docs/pose_graph.md, "Known-vertical consensus").
   if (options_.pnp_vertical_check_threshold_scale > 0.0) {
-    std::vector<Eigen::Vector3d> points_3d;
-    std::vector<Eigen::Vector2d> normalized;
-    points_3d.reserve(matches.size());
-    normalized.reserve(matches.size());
-    for (const PointMatch& m : matches) {
-      points_3d.push_back(points.p_odom[m.point]);
-      normalized.push_back(sub.normalized[m.keypoint]);
-    }
     const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_b_c_).linear();
     const int samples = std::min(options_.pnp_iterations,
                                  ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
@@ -393,6 +384,14 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
       r.stage = LoopStage::kPnp;
       return r;
     }
+  }
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  object.reserve(matches.size());
+  image.reserve(matches.size());
+  for (size_t i = 0; i < matches.size(); ++i) {
+    object.emplace_back(points_3d[i].x(), points_3d[i].y(), points_3d[i].z());
+    image.emplace_back(normalized[i].x(), normalized[i].y());
   }
   const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
   cv::Mat rvec, tvec;

@@ -397,11 +397,11 @@ std::vector<PoseGraphSolution> PoseGraphManager::solveSnapshots(const std::vecto
     record.t_keyframe = t_keyframe;
     record.solve_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     record.solve_cpu_ms = 1e3 * (threadCpuSeconds() - cpu_start);
-    // The record keeps the report without its loop residuals (one per loop edge of the snapshot):
-    // records are kept for the whole run, and clear() would keep each copy's buffer, so the held
-    // memory grew with solves x loops (~270 MB over a 1 h soak).
+    // The record keeps the report without its loop residuals (one per loop edge of the snapshot;
+    // nothing after the solve reads them): records are kept for the whole run, and a cleared copy
+    // kept each buffer, so the held memory grew with solves x loops (~250 MB over a 1 h soak).
+    std::vector<LoopEdgeResidual>().swap(solutions.back().report.loop_residuals);
     record.report = solutions.back().report;
-    std::vector<LoopEdgeResidual>().swap(record.report.loop_residuals);
     const PoseGraphReport& r = record.report;
     logger_->debug(kComponent, VIMS_STR("optimised (" << toString(trigger) << ") " << r.num_nodes << " nodes, "
                                         << r.num_loop_edges << " loops, " << r.num_yaw_factors << " yaw factors: cost "
