@@ -60,3 +60,15 @@ TEST(CommittedConfigs, AChangedValueIsDetected) {
 }
 
 }  // namespace
+
+/// config/long_mission/: the node's file and the offline runner's section give the same options,
+/// and they are what the profile is for (a map that stops growing, bench/soak.py).
+TEST(CommittedConfigs, LongMissionProfileIsTheSameForTheNodeAndTheOfflineRunner) {
+  vims::PoseGraphManagerOptions node, offline;
+  ASSERT_NO_THROW(node = vims::PoseGraphManagerOptions::fromReader(committedConfig("long_mission/pose_graph.yaml")));
+  ASSERT_NO_THROW(offline = vims::PoseGraphManagerOptions::fromReader(
+                      committedConfig("long_mission/offline.yaml").child("pose_graph")));
+  EXPECT_EQ(node.toYaml(), offline.toYaml());
+  EXPECT_FALSE(node.loop.keep_culled_bow_vectors);
+  EXPECT_GT(node.loop.redundant_submap_radius_m, vims::PoseGraphManagerOptions().loop.redundant_submap_radius_m);
+}

@@ -132,7 +132,7 @@ std::string MagneticSubmapOptions::toYaml() const {
 
 LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) {
   reader.rejectUnknownKeys({"exclude_recent_keyframes", "exclude_recent_s", "redundant_submap_radius_m",
-                            "redundant_submap_max_height_difference_m", "query_signature_max_dt_s",
+                            "redundant_submap_max_height_difference_m", "keep_culled_bow_vectors", "query_signature_max_dt_s",
                             "mag_distance_relative", "mag_distance_floor_tesla", "mag_max_candidates",
                             "bow_min_score", "bow_max_candidates", "bow_max_candidates_all", "harris_threshold",
                             "submap_include_tracked_corners", "submap_dense_corners", "query_local_map_keyframes",
@@ -152,6 +152,7 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   readInRange(reader, "redundant_submap_radius_m", &o.redundant_submap_radius_m, 0.0, 100.0);
   readInRange(reader, "redundant_submap_max_height_difference_m", &o.redundant_submap_max_height_difference_m, 0.0,
                  100.0);
+  o.keep_culled_bow_vectors = reader.get<bool>("keep_culled_bow_vectors", o.keep_culled_bow_vectors);
   readInRange(reader, "query_signature_max_dt_s", &o.query_signature_max_dt_s, 0.0, 60.0);
   readInRange(reader, "mag_distance_relative", &o.mag_distance_relative, 0.0, 100.0);
   readInRange(reader, "mag_distance_floor_tesla", &o.mag_distance_floor_tesla, 0.0, 1e-3);
@@ -241,6 +242,7 @@ std::string LoopDetectorOptions::toYaml() const {
      << "exclude_recent_s: " << exclude_recent_s << "\n"
      << "redundant_submap_radius_m: " << redundant_submap_radius_m << "\n"
      << "redundant_submap_max_height_difference_m: " << redundant_submap_max_height_difference_m << "\n"
+     << "keep_culled_bow_vectors: " << (keep_culled_bow_vectors ? "true" : "false") << "\n"
      << "query_signature_max_dt_s: " << query_signature_max_dt_s << "\n"
      << "mag_distance_relative: " << mag_distance_relative << "\n"
      << "mag_distance_floor_tesla: " << mag_distance_floor_tesla << "\n"

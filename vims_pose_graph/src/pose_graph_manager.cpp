@@ -491,14 +491,14 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
   // still queries (with its own described points and BoW vector, kept in `pending` below), but
   // its keypoints and descriptors are not stored and it is not a loop candidate (no entry in
   // the BoW database). Its BoW vector (~5 KB against ~200 KB for a whole submap) stays in the
-  // node, so that place recognition can be evaluated on every keyframe of a run with the
-  // default culling (vims_eval place-recognition). The run's first keyframe has no component
+  // node unless keep_culled_bow_vectors is false, so that place recognition can be evaluated on
+  // every keyframe of a run (vims_eval place-recognition). The run's first keyframe has no component
   // to compare with (a loaded map is in another one until relocalisation).
   const bool culled = has_visual && has_previous &&
                       submapIsRedundant(static_cast<PoseGraphNodeId>(map_.numNodes()), kf.t, p_w_b, previous);
   if (culled) {
     VisualSubmap bow_only;
-    bow_only.bow = submap.bow;
+    if (options_.loop.keep_culled_bow_vectors) bow_only.bow = submap.bow;
     submap = std::move(bow_only);
     ++stats_.culled_submaps;
   }
@@ -862,8 +862,8 @@ std::vector<LoopAttempt> PoseGraphManager::loopAttempts() const {
 
 std::vector<LoopAttempt> PoseGraphManager::takeNewLoopAttempts() {
   std::lock_guard<std::mutex> lk(state_mutex_);
-  std::vector<LoopAttempt> out(attempts_.begin() + static_cast<std::ptrdiff_t>(attempts_taken_), attempts_.end());
-  attempts_taken_ = attempts_.size();
+  std::vector<LoopAttempt> out;
+  out.swap(attempts_);
   return out;
 }
 

@@ -487,6 +487,23 @@ TEST(PoseGraphManager, RedundantSubmapsOfAReflownPlaceAreNotStoredAndTheirQuerie
   }
   EXPECT_GE(loops_from_culled, 3u);
 
+  // Long missions (keep_culled_bow_vectors false): the same keyframes are culled and keep nothing,
+  // and the loops are the same (a culled keyframe's BoW vector never takes part in detection).
+  PoseGraphManagerOptions lean = o;
+  lean.loop.keep_culled_bow_vectors = false;
+  PoseGraphManager m_lean(lean, test::testSequence(), vocabularyFor(lean));
+  feed(m_lean, run);
+  EXPECT_EQ(m_lean.stats().culled_submaps, culled.size());
+  m_lean.inspectMap([&](const MultiScaleMap& map) {
+    for (PoseGraphNodeId i : culled) EXPECT_TRUE(map.node(i).visual.bow.empty()) << "node " << i;
+  });
+  const std::vector<LoopAttempt> lean_attempts = m_lean.loopAttempts();
+  ASSERT_EQ(lean_attempts.size(), attempts.size());
+  for (size_t i = 0; i < attempts.size(); ++i) {
+    EXPECT_EQ(lean_attempts[i].accepted, attempts[i].accepted) << "attempt " << i;
+    EXPECT_EQ(lean_attempts[i].match_node, attempts[i].match_node) << "attempt " << i;
+  }
+
   // Culling off (radius 0): every submap is stored.
   o.loop.redundant_submap_radius_m = 0.0;
   PoseGraphManager all(o, test::testSequence(), vocabularyFor(o));

@@ -107,6 +107,11 @@ struct LoopDetectorOptions {
   /// another scale, and a later revisit at that altitude matches them with fewer pyramid levels
   /// apart. 0.5 m [m]: 2.6 / 2.1 = 1.24, about one ORB level (1.2) at the lowest altitude.
   double redundant_submap_max_height_difference_m = 0.5;
+  /// A culled keyframe keeps its BoW vector (~5 KB; a submap is ~200 KB), though it is no loop
+  /// candidate, so that `vims_eval place-recognition` can score every keyframe of a run. It is
+  /// the only part of the map that grows with time once culling has stopped new submaps: false
+  /// on long missions (config/long_mission/), where memory then stops with the map.
+  bool keep_culled_bow_vectors = true;
 
   // --- magnetic stage
   /// The query's signature is the valid one nearest in time within this [s] (hop 0.4 s: one is

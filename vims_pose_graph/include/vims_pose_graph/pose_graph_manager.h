@@ -182,8 +182,10 @@ class PoseGraphManager {
   /// T_map_odom() * T_odom_b: the corrected current pose.
   Eigen::Isometry3d correctedPose(const Eigen::Isometry3d& T_odom_b) const;
   std::vector<LoopEdgeInfo> loopEdges() const;
-  /// Every loop attempt so far, and those since the previous call (for streaming loops.csv).
+  /// The loop attempts not yet taken (all of them if takeNewLoopAttempts() was never called).
   std::vector<LoopAttempt> loopAttempts() const;
+  /// Hands over the attempts since the previous call and forgets them, so that a long run that
+  /// streams loops.csv (vims_offline, the node) does not hold every attempt of the mission.
   std::vector<LoopAttempt> takeNewLoopAttempts();
   MapContents mapContents() const;
   PoseGraphManagerStats stats() const;
@@ -304,8 +306,7 @@ class PoseGraphManager {
   double latest_geomagnetic_t_ = -1e300;
   double latest_keyframe_t_ = -1e300;
   int keyframes_since_optimisation_ = 0;
-  std::vector<LoopAttempt> attempts_;
-  size_t attempts_taken_ = 0;
+  std::vector<LoopAttempt> attempts_;  ///< not yet taken (takeNewLoopAttempts)
   std::optional<DetectionResult> last_detection_;
   PoseGraphManagerStats stats_;
   PoseGraphTimings timings_;

@@ -21,9 +21,9 @@
 //                              of the `vims` package (roslib), required without roslib
 //             ~map_load        (string, optional): a saved map to relocalise against (teach and repeat)
 //             ~map_save        (string, optional): where to save the map on shutdown
-//             ~output_dir      (string, optional): on shutdown, after processing what is queued,
-//                              writes global.tum and loops.csv there, the same files vims_offline
-//                              writes (docs/offline_outputs.md)
+//             ~output_dir      (string, optional): writes loops.csv there as the attempts come
+//                              and, on shutdown after processing what is queued, global.tum: the
+//                              same files vims_offline writes (docs/offline_outputs.md)
 //             ~map_frame_id, ~odom_frame_id (string, default "map", "odom")
 //             ~publish_period_s           (double, default 1.0): path, loop edges and map markers
 //             ~signature_arrow_length_m   (double, default 1.0): length of the signature arrows
@@ -51,6 +51,7 @@
 #include <string>
 
 #include "vims_common/config_reader.h"
+#include "vims_common/heap.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/trajectory_io.h"
 #include "vims_pose_graph/loop_csv.h"
@@ -123,6 +124,18 @@ class PoseGraphNode {
                                  ros::TransportHints().tcpNoDelay());
     publish_timer_ = nh.createWallTimer(ros::WallDuration(settings_.publish_period_s), &PoseGraphNode::onPublishTimer,
                                         this);
+    if (!settings_.output_dir.empty()) {
+      // loops.csv is streamed (the manager forgets the attempts it hands over): a mission's
+      // attempts need not stay in memory until shutdown.
+      try {
+        std::error_code ec;
+        std::filesystem::create_directories(settings_.output_dir, ec);
+        loops_csv_ = std::make_unique<vims::LoopCsvWriter>(
+            (std::filesystem::path(settings_.output_dir) / "loops.csv").string());
+      } catch (const std::exception& e) {
+        ROS_ERROR_STREAM("cannot write loops.csv to " << settings_.output_dir << ": " << e.what());
+      }
+    }
     ROS_INFO_STREAM("pose graph (mode " << vims::toString(manager_->options().mode) << "): "
                                         << keyframe_sub_.getTopic() << ", " << signature_sub_.getTopic() << ", "
                                         << geomagnetic_sub_.getTopic() << ", " << odometry_sub_.getTopic() << " -> "
@@ -153,7 +166,7 @@ class PoseGraphNode {
 
  private:
   /// global.tum (the final optimised body pose of every keyframe of this run, world frame) and
-  /// loops.csv (every loop attempt), written as vims_offline writes them.
+  /// the last rows of loops.csv (streamed since the start), as vims_offline writes them.
   bool writeOutputs() {
     const std::filesystem::path dir(settings_.output_dir);
     try {
@@ -165,9 +178,8 @@ class PoseGraphNode {
         global_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
       }
       global_tum.flush();
-      vims::LoopCsvWriter loops_csv((dir / "loops.csv").string());
-      for (const vims::LoopAttempt& attempt : manager_->loopAttempts()) loops_csv.write(attempt);
-      loops_csv.flush();
+      writeLoopAttempts(manager_->takeNewLoopAttempts());
+      if (loops_csv_) loops_csv_->flush();
       std::cerr << "vims_pose_graph: " << poses.size() << " keyframe poses written to " << (dir / "global.tum").string()
                 << std::endl;
     } catch (const std::exception& e) {
@@ -243,12 +255,31 @@ class PoseGraphNode {
     if (!poses.empty()) publishPath(poses);
     publishLoopEdges(manager_->loopEdges());
     publishMapMarkers(manager_->mapContents());
-    for (const vims::LoopAttempt& attempt : manager_->takeNewLoopAttempts()) {
+    const std::vector<vims::LoopAttempt> attempts = manager_->takeNewLoopAttempts();
+    for (const vims::LoopAttempt& attempt : attempts) {
       if (attempt.accepted) {
         ROS_INFO_STREAM("loop accepted: keyframe " << attempt.query_node << " (t " << attempt.t_query
                                                    << ") -> keyframe " << attempt.match_node << " (t "
                                                    << attempt.t_match << "), " << attempt.inliers << " inliers");
       }
+    }
+    writeLoopAttempts(attempts);
+    // Freed pages back to the OS once a minute (vims_common/heap.h): the resident set then
+    // follows the map on a long mission.
+    const ros::WallTime now = ros::WallTime::now();
+    if ((now - last_heap_release_).toSec() >= kHeapReleasePeriodS) {
+      last_heap_release_ = now;
+      vims::releaseFreeHeapPages();
+    }
+  }
+
+  void writeLoopAttempts(const std::vector<vims::LoopAttempt>& attempts) {
+    if (!loops_csv_) return;
+    try {
+      for (const vims::LoopAttempt& attempt : attempts) loops_csv_->write(attempt);
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM("loops.csv: " << e.what() << "; no more rows are written");
+      loops_csv_.reset();
     }
   }
 
@@ -376,6 +407,9 @@ class PoseGraphNode {
   NodeSettings settings_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::optional<ros::Time> last_tf_stamp_;
+  static constexpr double kHeapReleasePeriodS = 60.0;
+  ros::WallTime last_heap_release_ = ros::WallTime::now();
+  std::unique_ptr<vims::LoopCsvWriter> loops_csv_;  ///< OUT/loops.csv when ~output_dir is set
   ros::Publisher path_pub_;
   ros::Publisher odometry_pub_;
   ros::Publisher loop_edges_pub_;

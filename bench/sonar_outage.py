@@ -1,0 +1,113 @@
+#!/usr/bin/python3
+"""Sonar outages over several seeds (issue 6): how much a sonar outage costs against the clean run.
+
+For each seed: simulate a tank sequence without a fault and the same one with the sonar off for
+--off (seconds from the start, vims_sim --sonar-off), run vims_offline on the clean sequence and
+on the faulty one twice: with the default configuration (features of range-less keyframes held
+at the last measured seabed height, docs/factors.md 5b) and visual-inertial only through the
+outage (carry_seabed_through_outages: false). Prints one row per seed: the SE(3) ATE of vio.tum
+and global.tum of each run [mm] and the ratios to the clean run, and writes WORK/sonar_outage.md.
+
+    bench/sonar_outage.py --work /work/data/faults/outage [--seeds 11 12 13 14 15 16]
+                          [--duration 100] [--off 30:60] [--build _build] [--jobs 2]
+
+The fault test (test/fault_tolerance, seed 11) is the first row of the default set. Documented in
+docs/benchmarks.md, "Fault tolerance".
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+VI_ONLY_CONFIG = "estimator:\n  factors:\n    sonar_depth:\n      carry_seabed_through_outages: false\n"
+
+
+def run(cmd, log):
+    with open(log, "w") as f:
+        return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
+
+
+def ate_mm(bin_dir, sequence, estimate):
+    name = os.path.basename(os.path.normpath(sequence))
+    gt = os.path.join(sequence, name + "_gt.tum")
+    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "traj", "--align", "se3", "--gt", gt, "--est", estimate],
+                          capture_output=True, text=True)
+    m = re.search(r" ate_se3_m=([0-9.eE+-]+|nan)", proc.stdout)
+    if not m:
+        sys.exit(f"sonar_outage.py: vims_eval failed on {estimate}:\n{proc.stdout}{proc.stderr}")
+    return 1000.0 * float(m.group(1))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--work", required=True, help="folder for sequences and outputs (not inside the repo)")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[11, 12, 13, 14, 15, 16])
+    ap.add_argument("--duration", type=float, default=100.0)
+    ap.add_argument("--off", default="30:60", help="sonar outage BEGIN:END [s from the start]")
+    ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
+    ap.add_argument("--jobs", type=int, default=2)
+    args = ap.parse_args()
+
+    bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
+    work = os.path.abspath(args.work)
+    if work.startswith(ROOT + os.sep):
+        sys.exit("sonar_outage.py: --work must be outside the repository")
+    os.makedirs(work, exist_ok=True)
+    vi_only = os.path.join(work, "vi_only.yaml")
+    with open(vi_only, "w") as f:
+        f.write(VI_ONLY_CONFIG)
+
+    def simulate(seed, faulty):
+        name = f"{'off' if faulty else 'clean'}_s{seed}"
+        seq = os.path.join(work, name)
+        if not os.path.exists(os.path.join(seq, name + ".bag")):
+            cmd = [os.path.join(bin_dir, "vims_sim"), "--scenario", "tank", "--duration", f"{args.duration:g}",
+                   "--seed", str(seed), "--lz4", "--out", seq]
+            if faulty:
+                cmd += ["--sonar-off", args.off]
+            if run(cmd, seq + "_sim.log") != 0:
+                sys.exit(f"sonar_outage.py: vims_sim failed, see {seq}_sim.log")
+        return seq
+
+    def offline(seq, label, config=None):
+        out = os.path.join(work, "out", f"{os.path.basename(seq)}_{label}")
+        cmd = [os.path.join(bin_dir, "vims_offline"), "--quiet", "--sequence", seq, "--out", out]
+        if config:
+            cmd += ["--config", config]
+        if run(cmd, out + ".log") != 0:
+            sys.exit(f"sonar_outage.py: vims_offline failed, see {out}.log")
+        return {k: ate_mm(bin_dir, seq, os.path.join(out, k + ".tum")) for k in ("vio", "global")}
+
+    os.makedirs(os.path.join(work, "out"), exist_ok=True)
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        sequences = {(s, f): pool.submit(simulate, s, f) for s in args.seeds for f in (False, True)}
+        sequences = {k: v.result() for k, v in sequences.items()}
+        jobs = {}
+        for s in args.seeds:
+            jobs[(s, "clean")] = pool.submit(offline, sequences[(s, False)], "default")
+            jobs[(s, "held")] = pool.submit(offline, sequences[(s, True)], "default")
+            jobs[(s, "vi")] = pool.submit(offline, sequences[(s, True)], "vi_only", vi_only)
+        results = {k: v.result() for k, v in jobs.items()}
+
+    lines = [f"Sonar off {args.off} s in {args.duration:g} s tank sequences; SE(3) ATE [mm] and ratio to the clean run",
+             "",
+             "| seed | clean VIO | clean global | held VIO | held global | VI-only VIO | VI-only global |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for s in args.seeds:
+        c = results[(s, "clean")]
+        cells = [f"{c['vio']:.1f}", f"{c['global']:.1f}"]
+        for variant in ("held", "vi"):
+            r = results[(s, variant)]
+            cells += [f"{r[k]:.1f} ({r[k] / c[k]:.2f}x)" for k in ("vio", "global")]
+        lines.append(f"| {s} | " + " | ".join(cells) + " |")
+    table = "\n".join(lines)
+    print(table)
+    with open(os.path.join(work, "sonar_outage.md"), "w") as f:
+        f.write(table + "\n")
+
+
+if __name__ == "__main__":
+    main()
