@@ -17,4 +17,12 @@ bool releaseFreeHeapPages() {
 #endif
 }
 
+bool PeriodicHeapRelease::tick(double now_s) {
+  if (released_once_ && now_s - last_s_ < period_s_) return false;
+  released_once_ = true;
+  last_s_ = now_s;
+  releaseFreeHeapPages();
+  return true;
+}
+
 }  // namespace vims

@@ -42,3 +42,13 @@ TEST(Heap, ReleaseFreeHeapPagesReturnsFreedPagesBelowALiveBlock) {
   EXPECT_GT(retained - released, 48.0) << "RSS " << retained << " MB -> " << released << " MB";
   EXPECT_EQ(fence[0], 1);
 }
+
+TEST(Heap, PeriodicHeapReleaseReleasesOncePerPeriod) {
+  vims::PeriodicHeapRelease release(60.0);
+  EXPECT_TRUE(release.tick(1000.0));  // the first tick releases
+  EXPECT_FALSE(release.tick(1000.0));
+  EXPECT_FALSE(release.tick(1059.9));
+  EXPECT_TRUE(release.tick(1060.0));
+  EXPECT_FALSE(release.tick(1100.0));
+  EXPECT_TRUE(release.tick(1120.0));
+}

@@ -19,14 +19,11 @@
 #include <unistd.h>
 
 #include "vims_common/config_reader.h"
-#include "vims_common/heap.h"
 
 namespace fs = std::filesystem;
 
 namespace vims {
 namespace {
-
-constexpr double kHeapReleasePeriodS = 60.0;  ///< bag time between releaseFreeHeapPages() calls
 
 /// Progress on stderr: a rewriting line on a terminal, a line every 10 % otherwise (CI logs).
 class ProgressPrinter {
@@ -251,10 +248,7 @@ void OfflinePipeline::onImu(const ImuSample& sample) {
 void OfflinePipeline::onImage(const CameraFrame& frame) {
   // Freed pages of the three threads' arenas back to the OS once a minute of bag time: with a map
   // that has stopped growing, the resident set then stops too (bench/soak.py). No output changes.
-  if (frame.t - last_heap_release_t_ >= kHeapReleasePeriodS) {
-    last_heap_release_t_ = frame.t;
-    releaseFreeHeapPages();
-  }
+  heap_release_.tick(frame.t);
   // Frame k reaches the estimator when frame k+N arrives (N = kFramesInFlight; or at the end of
   // the bag), after every message recorded before that: a fixed point of the message stream, so
   // the outputs do not depend on how long the tracker takes, while frames k+1..k+N are tracked

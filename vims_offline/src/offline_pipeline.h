@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "vims_common/heap.h"
 #include "vims_common/latency_histogram.h"
 #include "vims_common/log.h"
 #include "vims_common/trajectory_io.h"
@@ -182,8 +183,7 @@ class OfflinePipeline {
   double pose_graph_other_ms_ = 0.0;  ///< pose-graph calls in neither bucket (signatures, geomagnetic field)
   std::size_t pose_graph_optimisations_seen_ = 0;
   std::size_t pose_graph_solves_seen_ = 0;
-  /// Bag time of the last releaseFreeHeapPages() (once per kHeapReleasePeriodS of bag time).
-  double last_heap_release_t_ = -1e300;
+  PeriodicHeapRelease heap_release_;  ///< on the bag clock
   long vio_frames_ = 0;
   long vio_keyframes_ = 0;
   std::vector<SignatureWindow> signature_windows_;

@@ -266,11 +266,7 @@ class PoseGraphNode {
     writeLoopAttempts(attempts);
     // Freed pages back to the OS once a minute (vims_common/heap.h): the resident set then
     // follows the map on a long mission.
-    const ros::WallTime now = ros::WallTime::now();
-    if ((now - last_heap_release_).toSec() >= kHeapReleasePeriodS) {
-      last_heap_release_ = now;
-      vims::releaseFreeHeapPages();
-    }
+    heap_release_.tick(ros::WallTime::now().toSec());
   }
 
   void writeLoopAttempts(const std::vector<vims::LoopAttempt>& attempts) {
@@ -407,8 +403,7 @@ class PoseGraphNode {
   NodeSettings settings_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::optional<ros::Time> last_tf_stamp_;
-  static constexpr double kHeapReleasePeriodS = 60.0;
-  ros::WallTime last_heap_release_ = ros::WallTime::now();
+  vims::PeriodicHeapRelease heap_release_;  ///< on the wall clock
   std::unique_ptr<vims::LoopCsvWriter> loops_csv_;  ///< OUT/loops.csv when ~output_dir is set
   ros::Publisher path_pub_;
   ros::Publisher odometry_pub_;
