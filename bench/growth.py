@@ -29,7 +29,7 @@ import time
 
 import yaml
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench_common import ROOT, EvalError, ate_se3_m, prepare_work_dir, tool_dir
 
 
 def run_timed(cmd, log_path):
@@ -60,14 +60,13 @@ def flatten(prefix, node, out):
 
 
 def ate_se3(bin_dir, sequence, estimate):
-    name = os.path.basename(os.path.normpath(sequence))
-    gt = os.path.join(sequence, name + "_gt.tum")
+    """The ATE, or nan for a run that wrote no trajectory or one vims_eval cannot evaluate."""
     if not os.path.exists(estimate) or os.path.getsize(estimate) == 0:
         return float("nan")
-    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "traj", "--align", "se3", "--gt", gt, "--est", estimate],
-                          capture_output=True, text=True)
-    m = re.search(r" ate_se3_m=([0-9.eE+-]+|nan)", proc.stdout)
-    return float(m.group(1)) if m else float("nan")
+    try:
+        return ate_se3_m(bin_dir, sequence, estimate)
+    except EvalError:
+        return float("nan")
 
 
 def main():
@@ -81,11 +80,8 @@ def main():
     ap.add_argument("--keep-sequences", action="store_true")
     args = ap.parse_args()
 
-    bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
-    work = os.path.abspath(args.work)
-    if work.startswith(ROOT + os.sep):
-        sys.exit("growth.py: --work must be outside the repository")
-    os.makedirs(work, exist_ok=True)
+    bin_dir = tool_dir(args.build)
+    work = prepare_work_dir(args.work, "growth.py")
     reuse = {}
     for item in args.reuse:
         d, path = item.split("=", 1)

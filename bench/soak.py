@@ -30,7 +30,7 @@ import time
 
 import yaml
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench_common import ROOT, prepare_work_dir, tool_dir
 
 
 def read_status_mb(pid):
@@ -73,11 +73,8 @@ def main():
                     help="report from an earlier run's WORK/soak.csv, WORK/out/summary.yaml and map (no new run)")
     args = ap.parse_args()
 
-    bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
-    work = os.path.abspath(args.work)
-    if work.startswith(ROOT + os.sep):
-        sys.exit("soak.py: --work must be outside the repository")
-    os.makedirs(work, exist_ok=True)
+    bin_dir = tool_dir(args.build)
+    work = prepare_work_dir(args.work, "soak.py")
     label = f"tank{args.duration:g}"
     sequence = os.path.abspath(args.reuse) if args.reuse else os.path.join(work, label)
     name = os.path.basename(os.path.normpath(sequence))

@@ -18,12 +18,12 @@ outage early or late, and a 90 s outage (--seeds 21 22 --duration 180 --off 40:1
 """
 import argparse
 import os
-import re
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench_common import ROOT, EvalError, ate_se3_m, prepare_work_dir, tool_dir
+
 VI_ONLY_CONFIG = "estimator:\n  factors:\n    sonar_depth:\n      carry_seabed_through_outages: false\n"
 
 
@@ -33,14 +33,10 @@ def run(cmd, log):
 
 
 def ate_mm(bin_dir, sequence, estimate):
-    name = os.path.basename(os.path.normpath(sequence))
-    gt = os.path.join(sequence, name + "_gt.tum")
-    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "traj", "--align", "se3", "--gt", gt, "--est", estimate],
-                          capture_output=True, text=True)
-    m = re.search(r" ate_se3_m=([0-9.eE+-]+|nan)", proc.stdout)
-    if not m:
-        sys.exit(f"sonar_outage.py: vims_eval failed on {estimate}:\n{proc.stdout}{proc.stderr}")
-    return 1000.0 * float(m.group(1))
+    try:
+        return 1000.0 * ate_se3_m(bin_dir, sequence, estimate)
+    except EvalError as e:
+        sys.exit(f"sonar_outage.py: vims_eval failed on {estimate}:\n{e}")
 
 
 def main():
@@ -53,11 +49,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
 
-    bin_dir = os.path.join(os.path.abspath(args.build), "devel", "lib", "vims")
-    work = os.path.abspath(args.work)
-    if work.startswith(ROOT + os.sep):
-        sys.exit("sonar_outage.py: --work must be outside the repository")
-    os.makedirs(work, exist_ok=True)
+    bin_dir = tool_dir(args.build)
+    work = prepare_work_dir(args.work, "sonar_outage.py")
     vi_only = os.path.join(work, "vi_only.yaml")
     with open(vi_only, "w") as f:
         f.write(VI_ONLY_CONFIG)

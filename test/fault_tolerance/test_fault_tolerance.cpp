@@ -13,7 +13,6 @@
 
 #include "vims_test/tool_runner.h"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -239,8 +238,7 @@ void expectFinishedAndAccurate(const OfflineRun& run, const SequenceTruth& truth
   const fs::path clean_out = runDir(reference.run);
   const fs::path clean_seq = vims::test::testSequence(reference.sequence);
   ASSERT_TRUE(fs::exists(clean_out / "global.tum")) << "the clean run " << clean_out << " is missing";
-  const YAML::Node clean_truth = YAML::LoadFile((clean_seq / (std::string(reference.sequence) + "_truth.yaml")).string());
-  ASSERT_DOUBLE_EQ(clean_truth["duration"].as<double>(), truth.duration) << "clean run of another length";
+  ASSERT_DOUBLE_EQ(loadTruth(clean_seq).duration, truth.duration) << "clean run of another length";
   const double clean_global = ateSe3(clean_seq, clean_out / "global.tum");
   const double global_ate = ateSe3(run.sequence, run.out / "global.tum");
   std::cout << "global ATE (se3): clean " << clean_global << " m, with the fault " << global_ate << " m\n";

@@ -1,0 +1,38 @@
+"""What the bench scripts share: where the tools are, the work folder, the ATE of a trajectory."""
+import os
+import re
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def tool_dir(build):
+    """The folder of vims_sim, vims_offline and vims_eval in the build folder `build`."""
+    return os.path.join(os.path.abspath(build), "devel", "lib", "vims")
+
+
+def prepare_work_dir(work, script):
+    """Creates the work folder and returns its absolute path; sequences and outputs never go into
+    the repository, so a folder inside it ends the script (`script` names it in the message)."""
+    work = os.path.abspath(work)
+    if work.startswith(ROOT + os.sep):
+        sys.exit(f"{script}: --work must be outside the repository")
+    os.makedirs(work, exist_ok=True)
+    return work
+
+
+class EvalError(RuntimeError):
+    """vims_eval printed no ATE (its output is the message)."""
+
+
+def ate_se3_m(bin_dir, sequence, estimate):
+    """SE(3)-aligned ATE [m] of the TUM file `estimate` against the sequence's <name>_gt.tum."""
+    name = os.path.basename(os.path.normpath(sequence))
+    gt = os.path.join(sequence, name + "_gt.tum")
+    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "traj", "--align", "se3", "--gt", gt, "--est", estimate],
+                          capture_output=True, text=True)
+    m = re.search(r" ate_se3_m=([0-9.eE+-]+|nan)", proc.stdout)
+    if not m:
+        raise EvalError(proc.stdout + proc.stderr)
+    return float(m.group(1))
