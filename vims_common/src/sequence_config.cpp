@@ -32,14 +32,15 @@ SequenceConfig SequenceConfig::load(const std::string& path, std::vector<std::st
 
 SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<std::string>* unknown_keys) {
   SequenceConfig cfg;
-  collectUnknown(root, {"topics", "camera", "imu", "sonar", "magnetometer"}, unknown_keys);
+  collectUnknown(root, {"topics", "camera", "imu", "sonar", "magnetometer", "pressure"}, unknown_keys);
 
   const ConfigReader topics = root.childOrEmpty("topics");
-  collectUnknown(topics, {"image", "imu", "sonar", "mag"}, unknown_keys);
+  collectUnknown(topics, {"image", "imu", "sonar", "mag", "pressure"}, unknown_keys);
   cfg.topics.image = topics.get<std::string>("image", cfg.topics.image);
   cfg.topics.imu = topics.get<std::string>("imu", cfg.topics.imu);
   cfg.topics.sonar = topics.get<std::string>("sonar", cfg.topics.sonar);
   cfg.topics.mag = topics.get<std::string>("mag", cfg.topics.mag);
+  cfg.topics.pressure = topics.get<std::string>("pressure", cfg.topics.pressure);
 
   const ConfigReader cam = root.child("camera");
   collectUnknown(cam, {"model", "width", "height", "intrinsics", "distortion", "T_b_c", "rate_hz"}, unknown_keys);
@@ -102,15 +103,41 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   }
   cfg.magnetometer.declination_deg = mag.get<double>("declination_deg", 0.0);
   requireInRange(mag, "declination_deg", cfg.magnetometer.declination_deg, -180.0, 180.0);
+
+  if (root.has("pressure")) {
+    const ConfigReader pressure = root.child("pressure");
+    collectUnknown(pressure, {"T_b_p", "rate_hz", "noise_std_pa", "atmospheric_pa", "water_density"}, unknown_keys);
+    PressureCalibration p;
+    p.T_b_p = pressure.getTransform("T_b_p");
+    p.rate_hz = pressure.get<double>("rate_hz");
+    requirePositive(pressure, "rate_hz", p.rate_hz);
+    p.noise_std_pa = pressure.get<double>("noise_std_pa", p.noise_std_pa);
+    requireNonNegative(pressure, "noise_std_pa", p.noise_std_pa);
+    // Sea level is 101.3 kPa; a wrong unit (hPa, bar) is far outside this range.
+    p.atmospheric_pa = pressure.get<double>("atmospheric_pa", p.atmospheric_pa);
+    requireInRange(pressure, "atmospheric_pa", p.atmospheric_pa, 5.0e4, 1.5e5);
+    // Fresh water 998, sea water 1020-1030 kg/m^3.
+    p.water_density = pressure.get<double>("water_density", p.water_density);
+    requireInRange(pressure, "water_density", p.water_density, 990.0, 1050.0);
+    cfg.pressure = p;
+  }
   return cfg;
 }
+
+double PressureCalibration::depthOf(double pressure_pa, double gravity) const {
+  return (pressure_pa - atmospheric_pa) / (water_density * gravity);
+}
+
+double PressureCalibration::depthStd(double gravity) const { return noise_std_pa / (water_density * gravity); }
 
 std::string SequenceConfig::toYaml() const {
   std::ostringstream os;
   os << std::setprecision(12);
   os << "# Sensor configuration (VIMS sensor data contract).\n";
   os << "topics: {image: " << topics.image << ", imu: " << topics.imu << ", sonar: " << topics.sonar
-     << ", mag: " << topics.mag << "}\n";
+     << ", mag: " << topics.mag;
+  if (pressure) os << ", pressure: " << topics.pressure;
+  os << "}\n";
   os << "camera:\n"
      << "  model: " << camera.model << "\n"
      << "  width: " << camera.width << "\n"
@@ -139,6 +166,14 @@ std::string SequenceConfig::toYaml() const {
      << "  noise_std: " << magnetometer.noise_std << "\n"
      << "  coil_frequency_hz: " << magnetometer.coil_frequency_hz << "\n"
      << "  declination_deg: " << magnetometer.declination_deg << "\n";
+  if (pressure) {
+    os << "pressure:\n"
+       << "  T_b_p: " << transformToYaml(pressure->T_b_p) << "\n"
+       << "  rate_hz: " << pressure->rate_hz << "\n"
+       << "  noise_std_pa: " << pressure->noise_std_pa << "\n"
+       << "  atmospheric_pa: " << pressure->atmospheric_pa << "\n"
+       << "  water_density: " << pressure->water_density << "\n";
+  }
   return os.str();
 }
 

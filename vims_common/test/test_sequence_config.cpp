@@ -112,3 +112,50 @@ TEST(SequenceConfig, ExtraKeysFromOtherRecordersAreReportedNotFatal) {
   ASSERT_EQ(unknown.size(), 1u);
   EXPECT_EQ(unknown[0], "recorder");
 }
+
+namespace {
+const char* kPressureSection = R"(pressure:
+  T_b_p: [1,0,0,-0.4, 0,1,0,0, 0,0,1,0.1, 0,0,0,1]
+  rate_hz: 10
+  noise_std_pa: 30.0
+  atmospheric_pa: 101325.0
+  water_density: 1025.0
+)";
+}  // namespace
+
+TEST(SequenceConfig, VersionOneSequenceHasNoPressureAndSavesWithoutIt) {
+  const auto cfg = SequenceConfig::fromReader(ConfigReader::fromString(kContractExample));
+  EXPECT_FALSE(cfg.pressure.has_value());
+  EXPECT_EQ(cfg.toYaml().find("pressure"), std::string::npos);
+}
+
+TEST(SequenceConfig, PressureSectionParsesConvertsAndRoundTrips) {
+  std::vector<std::string> unknown;
+  const std::string yaml = replace(kContractExample, "mag: /mag/raw}", "mag: /mag/raw, pressure: /depth/p}") +
+                           kPressureSection;
+  const auto cfg = SequenceConfig::fromReader(ConfigReader::fromString(yaml), &unknown);
+  EXPECT_TRUE(unknown.empty());
+  ASSERT_TRUE(cfg.pressure.has_value());
+  EXPECT_EQ(cfg.topics.pressure, "/depth/p");
+  EXPECT_NEAR(cfg.pressure->T_b_p.translation().x(), -0.4, 1e-12);
+  // 10 m of sea water: 1025 * 9.81 * 10 Pa above the atmosphere.
+  EXPECT_NEAR(cfg.pressure->depthOf(101325.0 + 1025.0 * 9.81 * 10.0, 9.81), 10.0, 1e-9);
+  EXPECT_NEAR(cfg.pressure->depthStd(9.81), 30.0 / (1025.0 * 9.81), 1e-12);
+  const auto back = SequenceConfig::fromReader(ConfigReader::fromString(cfg.toYaml()));
+  ASSERT_TRUE(back.pressure.has_value());
+  EXPECT_EQ(back.topics.pressure, "/depth/p");
+  EXPECT_DOUBLE_EQ(back.pressure->noise_std_pa, 30.0);
+  EXPECT_NEAR((back.pressure->T_b_p.matrix() - cfg.pressure->T_b_p.matrix()).norm(), 0, 1e-9);
+}
+
+TEST(SequenceConfig, BadPressureValuesNameTheirKey) {
+  const std::string yaml = std::string(kContractExample) + kPressureSection;
+  // An atmospheric pressure in hPa or bar is a unit error, not a weather change.
+  EXPECT_NE(errorOf(replace(yaml, "atmospheric_pa: 101325.0", "atmospheric_pa: 1013.25")).find("pressure.atmospheric_pa"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replace(yaml, "water_density: 1025.0", "water_density: 1.025")).find("pressure.water_density"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replace(yaml, "  rate_hz: 10\n  noise_std_pa", "  rate_hz: 0\n  noise_std_pa")).find("pressure.rate_hz"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replace(yaml, "T_b_p: [1,0,0,-0.4,", "T_b_p: [1,0,0,")).find("pressure.T_b_p"), std::string::npos);
+}

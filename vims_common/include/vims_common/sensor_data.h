@@ -22,6 +22,12 @@ struct SonarRange {
   double range = 0.0;  ///< [m]
 };
 
+/// One pressure-sensor reading (contract version 2): absolute pressure at the port.
+struct PressureSample {
+  double t = 0.0;
+  double pressure_pa = 0.0;  ///< [Pa]
+};
+
 /// One magnetometer sample in the mag frame (pre-calibrated, offset-free).
 struct MagSample {
   double t = 0.0;

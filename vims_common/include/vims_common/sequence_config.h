@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,8 @@ struct TopicNames {
   std::string imu = "/imu0";
   std::string sonar = "/sonar/range";
   std::string mag = "/mag/raw";
+  /// Read only when the sequence has a `pressure` section (contract version 2).
+  std::string pressure = "/pressure";
 };
 
 /// Pinhole camera with radial-tangential (k1, k2, p1, p2) distortion.
@@ -55,12 +58,29 @@ struct MagnetometerCalibration {
   double declination_deg = 0.0;     ///< magnetic declination at the site, east positive
 };
 
+/// Pressure (depth) sensor, optional (contract version 2): absolute pressure at the port.
+struct PressureCalibration {
+  Eigen::Isometry3d T_b_p = Eigen::Isometry3d::Identity();  ///< only the port's position matters
+  double rate_hz = 10.0;
+  double noise_std_pa = 0.0;
+  double atmospheric_pa = 101325.0;
+  double water_density = 1025.0;  ///< kg/m^3
+
+  /// Depth of the port below the surface [m] for an absolute pressure [Pa]:
+  /// (p - atmospheric_pa) / (water_density * gravity).
+  double depthOf(double pressure_pa, double gravity) const;
+  /// Standard deviation of that depth [m] for the sensor's noise_std_pa.
+  double depthStd(double gravity) const;
+};
+
 struct SequenceConfig {
   TopicNames topics;
   CameraCalibration camera;
   ImuCalibration imu;
   SonarCalibration sonar;
   MagnetometerCalibration magnetometer;
+  /// Present when the sequence YAML has a `pressure` section (its bag then has the topic).
+  std::optional<PressureCalibration> pressure;
 
   /// Reads and validates a sequence YAML. Throws ConfigError naming the bad key.
   /// Keys the contract does not define are returned in `unknown_keys` (if given): another
