@@ -36,3 +36,33 @@ def ate_se3_m(bin_dir, sequence, estimate):
     if not m:
         raise EvalError(proc.stdout + proc.stderr)
     return float(m.group(1))
+
+
+def _summary(line):
+    return dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
+
+
+def eval_run(bin_dir, sequence, out):
+    """`vims_eval run --no-run --no-figures` on a finished vims_offline output folder: VIO and global
+    SE(3) ATE [% of distance], rotation RMSE, tilt error (yaw-only alignment) [deg], loops. nan
+    (or -1 loops) for what the folder lacks (e.g. --vio-only runs have no global trajectory)."""
+    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out, "--no-run",
+                           "--no-figures"], capture_output=True, text=True)
+    nan = float("nan")
+    figures = {"vio_pct": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "global_pct": nan, "global_rot_deg": nan,
+               "global_tilt_deg": nan, "loops_correct": -1, "loops_wrong": -1}
+    for line in proc.stdout.splitlines():
+        if line.startswith("VIMS_EVAL "):
+            kv = _summary(line)
+            label = kv.get("label")
+            if label in ("vio", "global"):
+                figures[f"{label}_pct"] = float(kv.get("ate_se3_pct", nan))
+                figures[f"{label}_rot_deg"] = float(kv.get("rot_rmse_deg", nan))
+                figures[f"{label}_tilt_deg"] = float(kv.get("tilt_rmse_deg", nan))
+        elif line.startswith("VIMS_EVAL_LOOPS "):
+            kv = _summary(line)
+            figures["loops_correct"] = int(kv.get("correct", -1))
+            figures["loops_wrong"] = int(kv.get("wrong", -1))
+    if figures["vio_pct"] != figures["vio_pct"]:
+        raise EvalError(proc.stdout + proc.stderr)
+    return figures

@@ -13,7 +13,8 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
                        "init_velocity_sigma", "init_accel_bias_sigma", "init_gyro_bias_sigma", "imu_max_gap_s",
                        "max_frame_wait_s", "failure_max_accel_bias", "failure_max_gyro_bias",
                        "failure_max_position_jump_m", "failure_max_velocity", "failure_min_tracked",
-                       "failure_lost_tracking_s", "factors", "solve_window_every_frame", "visual_inertial_init"});
+                       "failure_lost_tracking_s", "factors", "solve_window_every_frame", "visual_inertial_init",
+                       "seabed", "pressure"});
   EstimatorOptions o;
   o.window_size = r.get<int>("window_size", o.window_size);
   requireInRange(r, "window_size", o.window_size, 2, 50);
@@ -83,6 +84,8 @@ EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
   requirePositive(r, "failure_lost_tracking_s", o.failure_lost_tracking_s);
   o.factors = FactorOptions::fromReader(r.childOrEmpty("factors"));
   o.visual_inertial_init = VisualInertialInitOptions::fromReader(r.childOrEmpty("visual_inertial_init"));
+  o.seabed = SeabedModelOptions::fromReader(r.childOrEmpty("seabed"));
+  o.pressure = PressureOptions::fromReader(r.childOrEmpty("pressure"));
   return o;
 }
 
@@ -114,6 +117,12 @@ std::string EstimatorOptions::toYaml() const {
   os << "visual_inertial_init:\n";
   std::istringstream init_in(visual_inertial_init.toYaml());
   while (std::getline(init_in, line)) os << "  " << line << "\n";
+  os << "seabed:\n";
+  std::istringstream seabed_in(seabed.toYaml());
+  while (std::getline(seabed_in, line)) os << "  " << line << "\n";
+  os << "pressure:\n";
+  std::istringstream pressure_in(pressure.toYaml());
+  while (std::getline(pressure_in, line)) os << "  " << line << "\n";
   return os.str();
 }
 

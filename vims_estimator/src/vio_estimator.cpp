@@ -1,3 +1,4 @@
+// Input, session start and frame processing of the sliding-window VIO.
 #include "vims_estimator/vio_estimator.h"
 
 #include <ceres/ceres.h>
@@ -18,46 +19,15 @@
 #include "vims_estimator/factors/sonar_depth_factor.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
+#include "vio_window.h"
 
 namespace vims {
+
+using namespace vio_window;
 
 namespace {
 
 constexpr const char* kComponent = "vio";
-
-/// The gauge prior on a session's first keyframe pins the arbitrary origin and yaw of the VIO
-/// frame (measurements cannot inform them). 1 mm / 1 mrad is far below anything the window can
-/// resolve, so it fixes the gauge without competing with any measurement.
-constexpr double kGaugeSigmaPosition = 1e-3;
-constexpr double kGaugeSigmaYaw = 1e-3;
-/// A feature must lie at least this far in front of a target camera for its reprojection factor
-/// to be added (the projection is undefined at z = 0 and badly conditioned just in front of it).
-constexpr double kMinTargetDepth = 0.05;
-/// A ray must point at least this much downwards (z component of the unit ray in the gravity
-/// aligned frame) to be intersected with the seabed plane: grazing rays give unbounded depths.
-constexpr double kMinRayDownComponent = 0.1;
-
-/// Linear prior on a speed-bias block: r = diag(1/sigma) (x - x0).
-class SpeedBiasPriorFactor : public ceres::SizedCostFunction<9, 9> {
- public:
-  SpeedBiasPriorFactor(const Eigen::Matrix<double, 9, 1>& x0, const Eigen::Matrix<double, 9, 1>& inv_sigma)
-      : x0_(x0), inv_sigma_(inv_sigma) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    Eigen::Map<const Eigen::Matrix<double, 9, 1>> x(parameters[0]);
-    Eigen::Map<Eigen::Matrix<double, 9, 1>> r(residuals);
-    r = inv_sigma_.cwiseProduct(x - x0_);
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, 9, 9, Eigen::RowMajor>> J(jacobians[0]);
-      J.setZero();
-      J.diagonal() = inv_sigma_;
-    }
-    return true;
-  }
-
- private:
-  Eigen::Matrix<double, 9, 1> x0_;
-  Eigen::Matrix<double, 9, 1> inv_sigma_;
-};
 
 /// Rotation with the given gravity-aligned roll/pitch and zero yaw that maps the body-frame
 /// specific force at rest (pointing up) onto +z of the VIO frame.
@@ -97,66 +67,6 @@ const char* vioStatusName(VioStatus status) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Window content
-// ---------------------------------------------------------------------------------------------
-
-struct VioEstimator::Frame {
-  struct Obs {
-    FeatureObservation fo;
-    Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
-  };
-  double t_stamp = 0.0;
-  double t_state = 0.0;
-  /// Raw gyroscope reading at t_state (the image velocity prediction subtracts the bias).
-  Eigen::Vector3d gyro_at_state = Eigen::Vector3d::Zero();
-  double pose[kPoseSize] = {0, 0, 0, 0, 0, 0, 1};
-  double sb[kSpeedBiasSize] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-  /// Preintegration from the previous window frame to this one (null for the oldest frame).
-  std::shared_ptr<ImuPreintegration> preintegration;
-  std::map<std::uint64_t, Obs> obs;
-  std::optional<double> sonar_range;
-  /// The session's first frame carries the gauge and first-state priors until marginalised.
-  bool has_first_state_prior = false;
-  Eigen::Vector3d prior_p = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond prior_q = Eigen::Quaterniond::Identity();
-  Eigen::Matrix<double, 9, 1> prior_sb = Eigen::Matrix<double, 9, 1>::Zero();
-  bool keyframe_emitted = false;
-  cv::Mat image;
-
-  Eigen::Isometry3d T_l_b() const { return poseBlockToIsometry(pose); }
-};
-
-struct VioEstimator::Feature {
-  std::uint64_t id = 0;
-  Frame* anchor = nullptr;
-  double lambda[1] = {0.0};
-  bool has_depth = false;
-  bool sonar_ok = true;  ///< false once the flat-bottom gate flagged the feature (rock, wall)
-};
-
-namespace {
-/// One residual block of the window, built identically for the solve and for marginalisation.
-struct ResidualSpec {
-  ceres::CostFunction* cost = nullptr;  ///< owned by whoever consumes the spec
-  bool sonar = false;                   ///< Cauchy (sonar) or Huber (reprojection) loss
-  std::vector<double*> blocks;
-};
-
-/// Solver settings of the window solves: a few dogleg iterations from the previous solution,
-/// single-threaded (the offline runner's determinism), with the optional wall-clock cap.
-ceres::Solver::Options windowSolverOptions(const EstimatorOptions& options, ceres::LinearSolverType linear_solver) {
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = linear_solver;
-  solver_options.trust_region_strategy_type = ceres::DOGLEG;
-  solver_options.max_num_iterations = options.max_solver_iterations;
-  if (options.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options.max_solver_time_s;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  return solver_options;
-}
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------
 // Construction and input
 // ---------------------------------------------------------------------------------------------
 
@@ -170,6 +80,10 @@ VioEstimator::VioEstimator(const SequenceConfig& sequence, const EstimatorOption
       std::max(sequence_.sonar.range_noise_std, options_.sonar_min_range_std_m));
   isometryToPoseBlock(sequence_.camera.T_b_c, T_b_c_block_);
   td_[0] = options_.td_initial_s;
+  if (sequence_.pressure && options_.pressure.enabled) {
+    pressure_filter_ = std::make_unique<PressureDepthFilter>(*sequence_.pressure, sequence_.imu.gravity, options_.pressure);
+    pressure_sigma_ = std::max(sequence_.pressure->depthStd(sequence_.imu.gravity), options_.pressure.min_depth_std_m);
+  }
 }
 
 VioEstimator::~VioEstimator() = default;
@@ -186,6 +100,7 @@ void VioEstimator::reset(const std::string& why) {
   priors_.clear();
   vi_init_frames_.clear();
   seabed_fix_.reset();  // a new session has a new frame l
+  surface_initialized_ = false;
 }
 
 void VioEstimator::feedImu(const ImuSample& sample) {
@@ -206,6 +121,7 @@ void VioEstimator::feedImu(const ImuSample& sample) {
       imu_.clear();
       pending_.clear();
       sonar_.clear();
+      pressure_.clear();
       last_frame_stamp_ = -std::numeric_limits<double>::infinity();
     } else if (dt > options_.imu_max_gap_s) {
       logger_->warn(kComponent, VIMS_STR("IMU gap of " << dt << " s (> imu_max_gap_s): resetting"));
@@ -227,6 +143,24 @@ void VioEstimator::feedSonar(const SonarFilterResult& result) {
   }
   sonar_.emplace_back(result.t, result.filtered);
   processPendingFrames();  // a frame may have been waiting for this range
+}
+
+void VioEstimator::feedPressure(const PressureSample& sample) {
+  if (!pressure_filter_) return;  // no pressure sensor in the sequence, or the factor is off
+  const PressureDepthFilter::Result r = pressure_filter_->add(sample);
+  if (!r.accepted) {
+    logger_->warnThrottled(kComponent, "pressure_bad", std::isfinite(sample.t) ? sample.t : 0.0, 10.0,
+                           "dropping a pressure sample at t=" + std::to_string(sample.t) + ": " + r.rejected_because);
+    return;
+  }
+  if (r.depth < -1.0 && !warned_above_surface_) {
+    warned_above_surface_ = true;
+    logger_->warn(kComponent, VIMS_STR("pressure depth " << r.depth << " m is above the surface: the sequence's "
+                                       "pressure.atmospheric_pa is probably wrong; depths are used relative to an "
+                                       "estimated surface, so the factor still holds"));
+  }
+  if (!pressure_.empty() && r.t < pressure_.back().first) pressure_.clear();  // clock went backwards
+  pressure_.emplace_back(r.t, r.depth);
 }
 
 void VioEstimator::feedFrame(const TrackedFrame& frame, const cv::Mat& image) {
@@ -316,32 +250,13 @@ void VioEstimator::processPendingFrames() {
 }
 
 std::optional<double> VioEstimator::sonarRangeAt(double t) const {
-  if (sonar_.empty()) return std::nullopt;
-  const double gap = options_.sonar_max_interpolation_gap_s;
-  auto it = std::lower_bound(sonar_.begin(), sonar_.end(), t,
-                             [](const std::pair<double, double>& s, double value) { return s.first < value; });
-  if (it != sonar_.end() && it != sonar_.begin()) {
-    const auto& a = *(it - 1);
-    const auto& b = *it;
-    if (t - a.first <= gap && b.first - t <= gap) {
-      const double w = (t - a.first) / (b.first - a.first);
-      return a.second + w * (b.second - a.second);
-    }
-  }
-  // No bracketing pair (the newest range is older than the frame): hold the nearest range if it
-  // is within half the interpolation gap.
-  double best_dt = std::numeric_limits<double>::infinity();
-  double best = 0.0;
-  if (it != sonar_.end()) {
-    best_dt = it->first - t;
-    best = it->second;
-  }
-  if (it != sonar_.begin() && t - (it - 1)->first < best_dt) {
-    best_dt = t - (it - 1)->first;
-    best = (it - 1)->second;
-  }
-  if (best_dt <= 0.5 * gap) return best;
-  return std::nullopt;
+  return interpolateSeries(sonar_, t, options_.sonar_max_interpolation_gap_s);
+}
+
+std::optional<double> VioEstimator::pressureDepthAt(double t) const {
+  if (!usePressure()) return std::nullopt;
+  // Three sample periods of the sequence's rate: one or two lost samples are interpolated over.
+  return interpolateSeries(pressure_, t, 3.0 / sequence_.pressure->rate_hz);
 }
 
 std::unique_ptr<VioEstimator::Frame> VioEstimator::makeFrame(const TrackedFrame& tracked, const cv::Mat& image,
@@ -352,6 +267,7 @@ std::unique_ptr<VioEstimator::Frame> VioEstimator::makeFrame(const TrackedFrame&
   frame->gyro_at_state = gyroAt(t_state);
   frame->image = image;
   if (options_.use_sonar) frame->sonar_range = sonarRangeAt(t_state);
+  frame->depth = pressureDepthAt(t_state);
   return frame;
 }
 
@@ -553,6 +469,11 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
       result.T_odom_b_at_stamp.translation() += result.v_odom_b * dt;
       result.T_odom_b_at_stamp.linear() =
           (Eigen::Quaterniond(result.T_odom_b.linear()) * so3::exp(w * dt)).normalized().toRotationMatrix();
+      result.seabed_slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
+      if (seabed_fix_) {
+        const SeabedPlane plane{seabed_fix_->height, seabed_fix_->xy, seabed_fix_->slope};
+        result.seabed_height = plane.heightAt(result.T_odom_b.translation().head<2>());
+      }
     }
     result.backend_ms = millisecondsSince(start);
     results_.push_back(result);
@@ -613,6 +534,7 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   auto frame = makeFrame(tracked, image, t_state);
   setPose(frame->pose, p_pred, q_pred);
   std::copy(prev->sb, prev->sb + kSpeedBiasSize, frame->sb);
+  std::copy(prev->slope, prev->slope + 2, frame->slope);
   Eigen::Map<Eigen::Vector3d>(frame->sb) = v_pred;
   frame->preintegration = preint;
   addObservations(frame.get(), tracked);
@@ -683,432 +605,6 @@ double VioEstimator::parallaxPx(const Frame& a, const Frame& b, int* common) con
   return count > 0 ? focal_ * sum / count : 0.0;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Feature depths
-// ---------------------------------------------------------------------------------------------
-
-Eigen::Vector3d VioEstimator::featureWorld(const Feature& feature) const {
-  const Frame::Obs& obs = feature.anchor->obs.at(feature.id);
-  const Eigen::Vector3d f_c = feature.lambda[0] * unitBearing(obs.fo, td_[0]);
-  return feature.anchor->T_l_b() * (extrinsicCamera() * f_c);
-}
-
-Eigen::Vector3d VioEstimator::gyroAt(double t) const {
-  if (imu_.empty()) return Eigen::Vector3d::Zero();
-  auto it = std::lower_bound(imu_.begin(), imu_.end(), t, [](const ImuSample& s, double value) { return s.t < value; });
-  if (it == imu_.begin()) return imu_.front().gyro;
-  if (it == imu_.end()) return imu_.back().gyro;
-  const ImuSample& a = *(it - 1);
-  const double w = (t - a.t) / (it->t - a.t);
-  return (1.0 - w) * a.gyro + w * it->gyro;
-}
-
-// The td correction uv + (td - td_frame) velocity needs each observation's image velocity. It is
-// the velocity the current state predicts, not a difference of the tracker's positions: KLT
-// tracks frame to frame, so its position error is a random walk along the track (measured on
-// tank60 against the ground-truth projections: 0.22 px rms per frame, 0.5 px at age 2, 3.5 px
-// at age 38), and any difference of a track's positions shares increments with the later
-// positions of the same track. That correlation biases td (errors in variables): -0.06 s on a
-// sequence without offset. For a static point X_c in the camera frame at the state time,
-//   dX_c/dt = -w_c x X_c - v_c,   w_c = R_bc^T (gyro - b_g),   v_c = R_bc^T (R_lb^T v_l + w_b x p_bc),
-//   d(uv)/dt = (dX_c.xy - uv dX_c.z) / X_c.z,
-// with X_c from the feature's anchor and depth. It is refreshed before every solve and held
-// constant within it (first order, like the correction itself); an observation of a feature
-// without depth gets none (it is in no factor).
-void VioEstimator::predictImageVelocities() {
-  // Without estimate_td, td == td_frame for every observation: the velocity has no effect.
-  if (!options_.estimate_td) return;
-  const Eigen::Isometry3d T_b_c = extrinsicCamera();
-  const Eigen::Matrix3d R_cb = T_b_c.linear().transpose();
-  // World points first: featureWorld reads the anchor observation's current velocity.
-  std::map<std::uint64_t, Eigen::Vector3d> points;
-  for (const auto& [id, feature] : features_) {
-    if (feature.has_depth && feature.lambda[0] > 0.0) points.emplace(id, featureWorld(feature));
-  }
-  for (auto& frame : frames_) {
-    const Eigen::Isometry3d T_l_b = frame->T_l_b();
-    const Eigen::Isometry3d T_c_l = (T_l_b * T_b_c).inverse();
-    const Eigen::Vector3d w_b = frame->gyro_at_state - sbGyroBias(frame->sb);
-    const Eigen::Vector3d w_c = R_cb * w_b;
-    const Eigen::Vector3d v_c = R_cb * (T_l_b.linear().transpose() * sbVelocity(frame->sb) + w_b.cross(T_b_c.translation()));
-    for (auto& [id, obs] : frame->obs) {
-      obs.fo.velocity.setZero();
-      auto it = points.find(id);
-      if (it == points.end()) continue;
-      const Eigen::Vector3d X_c = T_c_l * it->second;
-      if (!(X_c.z() > kMinTargetDepth)) continue;
-      const Eigen::Vector3d dX_c = -w_c.cross(X_c) - v_c;
-      const Eigen::Vector2d uv = X_c.head<2>() / X_c.z();
-      const Eigen::Vector2d velocity = (dX_c.head<2>() - uv * dX_c.z()) / X_c.z();
-      if (velocity.allFinite()) obs.fo.velocity = velocity;
-    }
-  }
-}
-
-bool VioEstimator::seabedDepth(const Feature& feature, double* lambda) const {
-  const Frame& a = *feature.anchor;
-  const Eigen::Isometry3d T_l_b = a.T_l_b();
-  double seabed_height = 0.0;
-  const SonarDepthOptions& sonar_depth = options_.factors.sonar_depth;
-  if (a.sonar_range) {
-    seabed_height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *a.sonar_range))).z();
-  } else if (seabed_fix_ && sonar_depth.carry_seabed_through_outages &&
-             (T_l_b.translation().head<2>() - seabed_fix_->xy).norm() <= sonar_depth.carry_max_distance_m) {
-    seabed_height = seabed_fix_->height;  // sonar outage: the last measured seabed
-  } else {
-    return false;
-  }
-  const Eigen::Isometry3d T_l_c = T_l_b * extrinsicCamera();
-  const Eigen::Vector3d ray = T_l_c.linear() * unitBearing(a.obs.at(feature.id).fo, td_[0]);
-  if (ray.z() > -kMinRayDownComponent) return false;
-  const double l = (seabed_height - T_l_c.translation().z()) / ray.z();
-  if (!(l >= options_.min_feature_depth_m && l <= options_.max_feature_depth_m)) return false;
-  *lambda = l;
-  return true;
-}
-
-bool VioEstimator::triangulate(const Feature& feature, double* lambda) const {
-  const Frame& a = *feature.anchor;
-  const Eigen::Isometry3d T_l_ca = a.T_l_b() * extrinsicCamera();
-  const Eigen::Vector3d ra = T_l_ca.linear() * unitBearing(a.obs.at(feature.id).fo, td_[0]);
-  const Eigen::Vector3d ca = T_l_ca.translation();
-  double best_angle = 0.0;
-  double best_lambda = -1.0;
-  for (const auto& frame : frames_) {
-    if (frame.get() == &a) continue;
-    auto it = frame->obs.find(feature.id);
-    if (it == frame->obs.end()) continue;
-    const Eigen::Isometry3d T_l_cb = frame->T_l_b() * extrinsicCamera();
-    const Eigen::Vector3d rb = T_l_cb.linear() * unitBearing(it->second.fo, td_[0]);
-    const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0));
-    if (angle <= best_angle) continue;
-    // Closest points of the rays ca + l ra and cb + m rb.
-    const Eigen::Vector3d d = T_l_cb.translation() - ca;
-    const double a11 = 1.0, a12 = -ra.dot(rb), a22 = 1.0;  // unit rays; system [1 -c; c -1][l m] = [d.ra d.rb]
-    const double det = -a11 * a22 + a12 * a12;
-    if (std::abs(det) < 1e-12) continue;
-    const double b1 = d.dot(ra), b2 = d.dot(rb);
-    const double l = (-a22 * b1 - a12 * b2) / det;
-    const double m = (a11 * b2 + a12 * b1) / det;
-    if (l < options_.min_feature_depth_m || m < options_.min_feature_depth_m || l > options_.max_feature_depth_m) continue;
-    best_angle = angle;
-    best_lambda = l;
-  }
-  if (best_lambda <= 0.0 || best_angle < options_.triangulation_min_angle_deg * M_PI / 180.0) return false;
-  *lambda = best_lambda;
-  return true;
-}
-
-void VioEstimator::initializeFeatureDepths() {
-  for (auto& [id, feature] : features_) {
-    if (feature.has_depth) continue;
-    double lambda = 0.0;
-    bool ok = false;
-    if (options_.use_sonar) ok = seabedDepth(feature, &lambda);
-    if (!ok) ok = triangulate(feature, &lambda);
-    if (ok) {
-      feature.lambda[0] = lambda;
-      feature.has_depth = true;
-    }
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Optimisation
-// ---------------------------------------------------------------------------------------------
-
-bool VioEstimator::priorTouches(const MarginalizationPrior& prior, const Frame* frame) {
-  for (const double* blk : prior.blocks) {
-    if (blk == frame->pose || blk == frame->sb) return true;
-  }
-  return false;
-}
-
-namespace {
-/// How features are tied to the seabed: the sonar depth factor where the anchor keyframe has a
-/// range, else (outage) a seabed height factor at the last measured height, if any.
-struct SeabedTies {
-  bool use_sonar = false;
-  Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-  double sonar_sigma = 0.05;
-  const SonarDepthOptions* options = nullptr;
-  const SeabedFix* carried = nullptr;  ///< the last measured seabed, null before the first range
-};
-
-/// Reprojection and sonar residual blocks of one feature at the current estimate.
-template <typename FrameT, typename FeatureT>
-void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT>>& frames, double* T_b_c, double* td,
-                      const Eigen::Matrix2d& sqrt_info, const SeabedTies& seabed, bool apply_gate,
-                      std::vector<ResidualSpec>* out) {
-  if (!feature.has_depth || !(feature.lambda[0] > 0.0)) return;
-  FrameT* a = feature.anchor;
-  const auto anchor_it = a->obs.find(feature.id);
-  if (anchor_it == a->obs.end()) return;
-  const auto& anchor = anchor_it->second.fo;
-  const Eigen::Isometry3d T_l_bi = a->T_l_b();
-  const Eigen::Isometry3d T_bc = poseBlockToIsometry(T_b_c);
-  const std::size_t first = out->size();
-  for (const auto& frame : frames) {
-    if (frame.get() == a) continue;
-    auto it = frame->obs.find(feature.id);
-    if (it == frame->obs.end()) continue;
-    double z = 0.0;
-    reprojectionResidual(anchor, it->second.fo, T_l_bi, frame->T_l_b(), T_bc, feature.lambda[0], td[0], nullptr, &z);
-    if (!(z > kMinTargetDepth)) continue;
-    ResidualSpec spec;
-    spec.cost = new ReprojectionFactor(anchor, it->second.fo, sqrt_info);
-    spec.blocks = {a->pose, frame->pose, T_b_c, feature.lambda, td};
-    out->push_back(spec);
-  }
-  if (out->size() == first) return;  // observed in the anchor only: no constraint
-  if (!seabed.use_sonar || !feature.sonar_ok) return;
-  const SonarDepthOptions& options = *seabed.options;
-  if (a->sonar_range) {
-    if (apply_gate) {
-      const SonarGateResult gate = sonarDepthGate(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc,
-                                                  feature.lambda[0], td[0], seabed.sonar_sigma, options);
-      if (!gate.consistent) feature.sonar_ok = false;
-    }
-    if (feature.sonar_ok) {
-      ResidualSpec spec;
-      spec.cost = new SonarDepthFactor(anchor, *a->sonar_range, seabed.T_b_s, seabed.sonar_sigma);
-      spec.sonar = true;
-      spec.blocks = {a->pose, T_b_c, feature.lambda, td};
-      out->push_back(spec);
-    }
-    return;
-  }
-  if (!options.carry_seabed_through_outages || !seabed.carried) return;
-  const SeabedFix& fix = *seabed.carried;
-  const double distance = (T_l_bi.translation().head<2>() - fix.xy).norm();
-  if (!(distance <= options.carry_max_distance_m)) return;
-  const double sigma = options.carriedSigma(seabed.sonar_sigma, distance);
-  // The gate's verdict on a carried height is not kept in sonar_ok: once the sonar is back the
-  // anchor's own range judges the feature afresh.
-  if (apply_gate &&
-      !seabedHeightGate(anchor, fix.height, T_l_bi, T_bc, feature.lambda[0], td[0], sigma, options).consistent)
-    return;
-  ResidualSpec spec;
-  spec.cost = new SeabedHeightFactor(anchor, fix.height, sigma);
-  spec.sonar = true;
-  spec.blocks = {a->pose, T_b_c, feature.lambda, td};
-  out->push_back(spec);
-}
-}  // namespace
-
-void VioEstimator::optimize(VioFrameResult* result) {
-  predictImageVelocities();
-  ceres::Problem::Options problem_options;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  PoseManifold pose_manifold;
-  ceres::HuberLoss huber(options_.reprojection_loss_scale);
-  ceres::CauchyLoss cauchy(options_.sonar_loss_scale);
-
-  for (auto& frame : frames_) {
-    problem.AddParameterBlock(frame->pose, kPoseSize, &pose_manifold);
-    problem.AddParameterBlock(frame->sb, kSpeedBiasSize);
-  }
-  problem.AddParameterBlock(T_b_c_block_, kPoseSize, &pose_manifold);
-  problem.SetParameterBlockConstant(T_b_c_block_);
-  problem.AddParameterBlock(td_, 1);
-  // Mean image speed of the window's tracked observations: td is only estimated with motion.
-  double speed_sum = 0.0;
-  int speed_count = 0;
-  for (const auto& frame : frames_) {
-    for (const auto& [id, obs] : frame->obs) {
-      if (obs.fo.velocity.isZero()) continue;  // new feature: no velocity yet
-      speed_sum += focal_ * obs.fo.velocity.norm();
-      ++speed_count;
-    }
-  }
-  const bool td_observable = speed_count > 0 && speed_sum / speed_count > options_.td_min_image_speed_px_s;
-  if (options_.estimate_td && td_observable) {
-    problem.SetParameterLowerBound(td_, 0, -options_.max_abs_td_s);
-    problem.SetParameterUpperBound(td_, 0, options_.max_abs_td_s);
-  } else {
-    problem.SetParameterBlockConstant(td_);
-  }
-
-  for (std::size_t i = 1; i < frames_.size(); ++i) {
-    Frame* fi = frames_[i - 1].get();
-    Frame* fj = frames_[i].get();
-    fj->preintegration->repropagateIfNeeded(sbAccelBias(fi->sb), sbGyroBias(fi->sb),
-                                            options_.factors.imu_preintegration);
-    problem.AddResidualBlock(new ImuFactor(fj->preintegration, g_l_), nullptr, fi->pose, fi->sb, fj->pose, fj->sb);
-  }
-  for (const auto& prior : priors_) problem.AddResidualBlock(new MarginalizationFactor(prior), nullptr, prior->blocks);
-  Frame* first = frames_.front().get();
-  if (first->has_first_state_prior) {
-    problem.AddResidualBlock(new PosePriorFactor(first->prior_p, first->prior_q,
-                                                 PosePriorFactor::positionYawSqrtInformation(kGaugeSigmaPosition,
-                                                                                             kGaugeSigmaYaw)),
-                             nullptr, first->pose);
-    Eigen::Matrix<double, 9, 1> inv_sigma;
-    inv_sigma << Eigen::Vector3d::Constant(1.0 / options_.init_velocity_sigma),
-        Eigen::Vector3d::Constant(1.0 / options_.init_accel_bias_sigma),
-        Eigen::Vector3d::Constant(1.0 / options_.init_gyro_bias_sigma);
-    problem.AddResidualBlock(new SpeedBiasPriorFactor(first->prior_sb, inv_sigma), nullptr, first->sb);
-  }
-
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
-  int n_features = 0, n_sonar = 0;
-  const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                          seabed_fix_ ? &*seabed_fix_ : nullptr};
-  std::vector<ResidualSpec> specs;
-  for (auto& [id, feature] : features_) {
-    specs.clear();
-    featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, true, &specs);
-    if (specs.empty()) continue;
-    problem.AddParameterBlock(feature.lambda, 1);
-    problem.SetParameterLowerBound(feature.lambda, 0, options_.min_feature_depth_m);
-    problem.SetParameterUpperBound(feature.lambda, 0, options_.max_feature_depth_m);
-    ++n_features;
-    for (const ResidualSpec& s : specs) {
-      if (s.sonar) ++n_sonar;
-      problem.AddResidualBlock(s.cost, s.sonar ? static_cast<ceres::LossFunction*>(&cauchy) : &huber, s.blocks);
-    }
-  }
-  if (n_features == 0 && options_.estimate_td && td_observable) problem.SetParameterBlockConstant(td_);  // no visual factor
-
-  ceres::Solver::Summary summary;
-  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_SCHUR), &problem, &summary);
-  result->features_in_window = n_features;
-  result->sonar_factors = n_sonar;
-}
-
-void VioEstimator::optimizeNewest(VioFrameResult* result) {
-  // Only the newest frame's pose and speed-bias are free; the previous frame's state, the
-  // anchors' poses, the depths, T_b_c and td are constants. Residuals: the IMU factor from the
-  // previous frame and the newest frame's reprojections of every landmark anchored elsewhere.
-  // Features anchored in the newest frame (new ones) constrain nothing yet.
-  predictImageVelocities();
-  const std::size_t n = frames_.size();
-  Frame* prev = frames_[n - 2].get();
-  Frame* newest = frames_[n - 1].get();
-  ceres::Problem::Options problem_options;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  PoseManifold pose_manifold;
-  ceres::HuberLoss huber(options_.reprojection_loss_scale);
-
-  auto add_constant = [&](double* block, int size, ceres::Manifold* manifold) {
-    if (problem.HasParameterBlock(block)) return;
-    problem.AddParameterBlock(block, size, manifold);
-    problem.SetParameterBlockConstant(block);
-  };
-  problem.AddParameterBlock(newest->pose, kPoseSize, &pose_manifold);
-  problem.AddParameterBlock(newest->sb, kSpeedBiasSize);
-  add_constant(prev->pose, kPoseSize, &pose_manifold);
-  add_constant(prev->sb, kSpeedBiasSize, nullptr);
-  add_constant(T_b_c_block_, kPoseSize, &pose_manifold);
-  add_constant(td_, 1, nullptr);
-  newest->preintegration->repropagateIfNeeded(sbAccelBias(prev->sb), sbGyroBias(prev->sb),
-                                              options_.factors.imu_preintegration);
-  problem.AddResidualBlock(new ImuFactor(newest->preintegration, g_l_), nullptr, prev->pose, prev->sb, newest->pose,
-                           newest->sb);
-
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
-  const Eigen::Isometry3d T_bc = extrinsicCamera();
-  const Eigen::Isometry3d T_l_bk = newest->T_l_b();
-  int n_features = 0;
-  for (auto& [id, feature] : features_) {
-    if (!feature.has_depth || !(feature.lambda[0] > 0.0) || feature.anchor == newest) continue;
-    auto it = newest->obs.find(id);
-    if (it == newest->obs.end()) continue;
-    const auto& anchor = feature.anchor->obs.at(id).fo;
-    double z = 0.0;
-    reprojectionResidual(anchor, it->second.fo, feature.anchor->T_l_b(), T_l_bk, T_bc, feature.lambda[0], td_[0],
-                         nullptr, &z);
-    if (!(z > kMinTargetDepth)) continue;
-    add_constant(feature.anchor->pose, kPoseSize, &pose_manifold);
-    add_constant(feature.lambda, 1, nullptr);
-    problem.AddResidualBlock(new ReprojectionFactor(anchor, it->second.fo, sqrt_info), &huber, feature.anchor->pose,
-                             newest->pose, T_b_c_block_, feature.lambda, td_);
-    ++n_features;
-  }
-
-  ceres::Solver::Summary summary;
-  // 15 unknowns: nothing to eliminate.
-  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_QR), &problem, &summary);
-  result->features_in_window = n_features;
-  result->sonar_factors = 0;
-}
-
-void VioEstimator::fillMissingSonarRanges() {
-  if (!options_.use_sonar) return;
-  for (auto& frame : frames_) {
-    if (!frame->sonar_range) frame->sonar_range = sonarRangeAt(frame->t_state);
-  }
-  // The newest frame's range may still be on its way; one frame later a missing range is a gap.
-  const std::size_t n = frames_.size();
-  if (n >= 2 && !frames_[n - 2]->sonar_range) {
-    const Frame& f = *frames_[n - 2];
-    std::ostringstream fallback;
-    fallback << std::fixed << std::setprecision(3);
-    if (seabed_fix_ && options_.factors.sonar_depth.carry_seabed_through_outages)
-      fallback << "features held at the seabed height the sonar last measured (z=" << seabed_fix_->height
-               << " m at t=" << seabed_fix_->t << ") within " << options_.factors.sonar_depth.carry_max_distance_m
-               << " m of it, visual-inertial beyond";
-    else
-      fallback << "visual-inertial only until it returns";
-    logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
-                           VIMS_STR("sonar gap: no filtered range within " << options_.sonar_max_interpolation_gap_s
-                                                                            << " s of the frame at t=" << std::fixed
-                                                                            << std::setprecision(3) << f.t_stamp << ": "
-                                                                            << fallback.str()));
-  }
-}
-
-void VioEstimator::updateSeabedFix() {
-  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {
-    const Frame& f = **it;
-    if (!f.sonar_range) continue;
-    if (seabed_fix_ && seabed_fix_->t > f.t_state) return;  // an older frame: keep the newer fix
-    const Eigen::Isometry3d T_l_b = f.T_l_b();
-    SeabedFix fix;
-    fix.height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range))).z();
-    fix.xy = T_l_b.translation().head<2>();
-    fix.t = f.t_state;
-    if (!std::isfinite(fix.height) || !fix.xy.allFinite()) return;
-    seabed_fix_ = fix;
-    return;
-  }
-}
-
-void VioEstimator::removeOutliers() {
-  const Eigen::Isometry3d T_bc = extrinsicCamera();
-  std::vector<std::uint64_t> remove;
-  for (auto& [id, feature] : features_) {
-    if (!feature.has_depth) continue;
-    if (!std::isfinite(feature.lambda[0]) || feature.lambda[0] < options_.min_feature_depth_m ||
-        feature.lambda[0] > options_.max_feature_depth_m) {
-      feature.has_depth = false;  // re-initialised from the seabed or triangulation
-      continue;
-    }
-    const auto& anchor = feature.anchor->obs.at(id).fo;
-    const Eigen::Isometry3d T_l_bi = feature.anchor->T_l_b();
-    for (const auto& frame : frames_) {
-      if (frame.get() == feature.anchor) continue;
-      auto it = frame->obs.find(id);
-      if (it == frame->obs.end()) continue;
-      double z = 0.0;
-      const Eigen::Vector2d r = reprojectionResidual(anchor, it->second.fo, T_l_bi, frame->T_l_b(), T_bc,
-                                                     feature.lambda[0], td_[0], nullptr, &z);
-      if (z > kMinTargetDepth && focal_ * r.norm() <= options_.outlier_reprojection_px) continue;
-      remove.push_back(id);
-      break;
-    }
-  }
-  for (std::uint64_t id : remove) {
-    for (auto& frame : frames_) frame->obs.erase(id);
-    features_.erase(id);
-  }
-}
 
 bool VioEstimator::detectFailure(const Eigen::Vector3d& p_pred, std::string* why) const {
   for (const auto& frame : frames_) {
@@ -1147,175 +643,6 @@ bool VioEstimator::detectFailure(const Eigen::Vector3d& p_pred, std::string* why
   return false;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Sliding the window
-// ---------------------------------------------------------------------------------------------
-
-void VioEstimator::reanchorFeaturesOf(const Frame* frame) {
-  // Features anchored in `frame` move to their next observing frame: the point is transferred
-  // (with the current depth) and lambda becomes its distance from the new anchor camera.
-  const Eigen::Isometry3d T_bc = extrinsicCamera();
-  std::vector<std::uint64_t> remove;
-  for (auto& [id, feature] : features_) {
-    if (feature.anchor != frame) continue;
-    Frame* next = nullptr;
-    for (const auto& f : frames_) {
-      if (f.get() != frame && f->obs.count(id)) {
-        next = f.get();
-        break;
-      }
-    }
-    if (next == nullptr) {
-      remove.push_back(id);
-      continue;
-    }
-    if (feature.has_depth) {
-      const Eigen::Vector3d p_l = featureWorld(feature);
-      const Eigen::Vector3d p_c = (next->T_l_b() * T_bc).inverse() * p_l;
-      if (p_c.z() > kMinTargetDepth && std::isfinite(p_c.norm())) {
-        feature.lambda[0] = p_c.norm();
-      } else {
-        feature.has_depth = false;
-      }
-    }
-    feature.anchor = next;
-    feature.sonar_ok = true;  // the new anchor has its own sonar range; the gate judges again
-  }
-  for (std::uint64_t id : remove) {
-    for (auto& f : frames_) f->obs.erase(id);
-    features_.erase(id);
-  }
-}
-
-void VioEstimator::marginalizeOldest() {
-  Frame* old = frames_.front().get();
-  Frame* next = frames_[1].get();
-  MarginalizationInfo info(options_.factors.marginalization);
-  std::vector<double*> drop = {old->pose, old->sb};
-  auto declare_frame = [&](Frame* f) {
-    info.addParameterBlock(f->pose, kPoseSize, BlockManifold::kPose);
-    info.addParameterBlock(f->sb, kSpeedBiasSize, BlockManifold::kEuclidean);
-  };
-  for (auto& f : frames_) declare_frame(f.get());
-  info.addParameterBlock(T_b_c_block_, kPoseSize, BlockManifold::kPose);
-  info.addParameterBlock(td_, 1, BlockManifold::kEuclidean);
-  try {
-    // Priors that touch the dropped states are folded into the new one; the others stay.
-    std::vector<std::shared_ptr<const MarginalizationPrior>> untouched;
-    for (const auto& prior : priors_) {
-      if (priorTouches(*prior, old)) {
-        info.addResidualBlock(std::make_shared<MarginalizationFactor>(prior), nullptr, prior->blocks);
-      } else {
-        untouched.push_back(prior);
-      }
-    }
-    info.addResidualBlock(std::make_shared<ImuFactor>(next->preintegration, g_l_), nullptr,
-                          {old->pose, old->sb, next->pose, next->sb});
-    if (old->has_first_state_prior) {
-      info.addResidualBlock(std::make_shared<PosePriorFactor>(
-                                old->prior_p, old->prior_q,
-                                PosePriorFactor::positionYawSqrtInformation(kGaugeSigmaPosition, kGaugeSigmaYaw)),
-                            nullptr, {old->pose});
-      Eigen::Matrix<double, 9, 1> inv_sigma;
-      inv_sigma << Eigen::Vector3d::Constant(1.0 / options_.init_velocity_sigma),
-          Eigen::Vector3d::Constant(1.0 / options_.init_accel_bias_sigma),
-          Eigen::Vector3d::Constant(1.0 / options_.init_gyro_bias_sigma);
-      info.addResidualBlock(std::make_shared<SpeedBiasPriorFactor>(old->prior_sb, inv_sigma), nullptr, {old->sb});
-    }
-    const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-        sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
-    auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
-    auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
-    const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                            seabed_fix_ ? &*seabed_fix_ : nullptr};
-    std::vector<ResidualSpec> specs;
-    for (auto& [id, feature] : features_) {
-      if (feature.anchor != old) continue;
-      specs.clear();
-      featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, false, &specs);
-      if (specs.empty()) continue;
-      info.addParameterBlock(feature.lambda, 1, BlockManifold::kEuclidean);
-      drop.push_back(feature.lambda);
-      for (const ResidualSpec& s : specs) {
-        std::shared_ptr<const ceres::LossFunction> loss =
-            s.sonar ? std::static_pointer_cast<const ceres::LossFunction>(cauchy)
-                    : std::static_pointer_cast<const ceres::LossFunction>(huber);
-        info.addResidualBlock(std::shared_ptr<const ceres::CostFunction>(s.cost), loss, s.blocks);
-      }
-    }
-    // With estimate_td, td stays in the prior: one window of this slow motion observes it only
-    // to about +-0.1 s (the tracker's random-walk errors, see predictImageVelocities), so the
-    // estimate needs the information of every window since the start (tank60, tracker
-    // features: the final td went from a wandering -0.08 s to a steady -0.002 s). Without
-    // estimate_td it is marginalised as before.
-    if (!options_.estimate_td) drop.push_back(td_);
-    auto prior = info.marginalize(drop);
-    priors_ = untouched;
-    if (prior) priors_.push_back(prior);
-  } catch (const std::exception& e) {
-    logger_->warn(kComponent, std::string("marginalisation failed, priors dropped: ") + e.what());
-    priors_.clear();
-  }
-  const bool had_gauge = old->has_first_state_prior;
-  reanchorFeaturesOf(old);
-  frames_.pop_front();
-  next->preintegration.reset();
-  if (priors_.empty()) {
-    // Without a prior the gauge would float: pin the new oldest frame where it is.
-    next->has_first_state_prior = true;
-    next->prior_p = posePosition(next->pose);
-    next->prior_q = Eigen::Quaterniond(poseRotation(next->pose));
-    next->prior_sb = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(next->sb);
-    if (!had_gauge) logger_->warn(kComponent, "no marginalisation prior: the gauge is re-pinned at the oldest frame");
-  }
-}
-
-void VioEstimator::dropSecondNewest() {
-  const std::size_t n = frames_.size();
-  Frame* a = frames_[n - 3].get();
-  Frame* b = frames_[n - 2].get();
-  Frame* c = frames_[n - 1].get();
-  std::vector<std::shared_ptr<const MarginalizationPrior>> kept;
-  for (const auto& prior : priors_) {
-    if (!priorTouches(*prior, b)) {
-      kept.push_back(prior);
-      continue;
-    }
-    // Only the prior knows this frame's states (its visual factors are simply dropped, as in
-    // VINS-Mono): marginalise them out of it.
-    MarginalizationInfo info(options_.factors.marginalization);
-    for (std::size_t i = 0; i < prior->blocks.size(); ++i) {
-      info.addParameterBlock(prior->blocks[i], prior->ambient_sizes[i], prior->manifolds[i]);
-    }
-    try {
-      info.addResidualBlock(std::make_shared<MarginalizationFactor>(prior), nullptr, prior->blocks);
-      std::vector<double*> drop;
-      for (double* blk : {b->pose, b->sb}) {
-        if (std::find(prior->blocks.begin(), prior->blocks.end(), blk) != prior->blocks.end()) drop.push_back(blk);
-      }
-      auto reduced = info.marginalize(drop);
-      if (reduced) kept.push_back(reduced);
-    } catch (const std::exception& e) {
-      logger_->warn(kComponent, std::string("marginalisation failed, prior dropped: ") + e.what());
-    }
-  }
-  priors_ = kept;
-  // Merge the IMU intervals a->b and b->c into a->c (shared boundary sample counted once).
-  std::vector<ImuSample> samples = b->preintegration->samples();
-  const auto& tail = c->preintegration->samples();
-  samples.insert(samples.end(), tail.begin() + 1, tail.end());
-  c->preintegration = std::make_shared<ImuPreintegration>(
-      ImuPreintegration::fromSamples(samples, sbAccelBias(a->sb), sbGyroBias(a->sb), noise_));
-  reanchorFeaturesOf(b);
-  frames_.erase(frames_.begin() + static_cast<long>(n - 2));
-  if (priors_.empty() && !frames_.front()->has_first_state_prior) {
-    Frame* f = frames_.front().get();
-    f->has_first_state_prior = true;
-    f->prior_p = posePosition(f->pose);
-    f->prior_q = Eigen::Quaterniond(poseRotation(f->pose));
-    f->prior_sb = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(f->sb);
-  }
-}
 
 void VioEstimator::emitKeyframe(Frame& frame) {
   if (frame.keyframe_emitted) return;

@@ -10,6 +10,7 @@
 #include "vims_estimator/factors/imu_factor.h"
 #include "vims_estimator/factors/marginalization_factor.h"
 #include "vims_estimator/factors/pose_prior_factor.h"
+#include "vims_estimator/factors/pressure_depth_factor.h"
 #include "vims_estimator/factors/relative_pose_factor.h"
 #include "vims_estimator/factors/reprojection_factor.h"
 #include "vims_estimator/factors/sonar_depth_factor.h"
@@ -227,7 +228,7 @@ TEST(FactorJacobians, SeabedHeightFactor) {
     const FeatureObservation anchor = randomObservation(rng);
     const double lambda = 3.0 + randomVector(rng, 1.0).x();
     const double td = randomVector(rng, 0.02).x();
-    const SeabedHeightFactor factor(anchor, -2.5 + randomVector(rng, 0.5).x(), 0.3);
+    const SeabedHeightFactor factor(anchor, SeabedPlane{-2.5 + randomVector(rng, 0.5).x()}, 0.3);
     std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
                          "seabed seed " + std::to_string(seed)));
@@ -240,6 +241,87 @@ TEST(FactorJacobians, SeabedHeightFactor) {
     EXPECT_NEAR(test::evaluateResidual(factor, moved)(0), test::evaluateResidual(factor, params)(0), 1e-12);
   }
   RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(FactorJacobians, SlopedSonarDepthFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(400 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
+    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
+    T_b_s.translation() = randomVector(rng, 0.3);
+    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_bk.translation() = randomVector(rng, 3.0);
+    const FeatureObservation anchor = randomObservation(rng);
+    const double range = 3.0 + randomVector(rng, 1.0).x();
+    const double lambda = 3.0 + randomVector(rng, 1.0).x();
+    const double td = randomVector(rng, 0.02).x();
+    const Eigen::Vector2d slope = randomVector(rng, 0.15).head<2>();  // up to ~8.5 deg
+    const SlopedSonarDepthFactor factor(anchor, range, T_b_s, 0.07);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}, {slope.x(), slope.y()}};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid, kEuclid}, kStep, kTol,
+                                                 "sloped sonar seed " + std::to_string(seed)));
+    std::vector<std::vector<double>> moved = params;  // the keyframe's position still cancels
+    moved[0][0] += 1.3;
+    moved[0][2] -= 0.7;
+    EXPECT_NEAR(test::evaluateResidual(factor, moved)(0), test::evaluateResidual(factor, params)(0), 1e-12);
+    // With a zero gradient it is the horizontal-plane factor to the last bit.
+    std::vector<std::vector<double>> level = params;
+    level[4] = {0.0, 0.0};
+    const SonarDepthFactor horizontal(anchor, range, T_b_s, 0.07);
+    std::vector<std::vector<double>> four(params.begin(), params.begin() + 4);
+    EXPECT_EQ(test::evaluateResidual(factor, level)(0), test::evaluateResidual(horizontal, four)(0));
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(FactorJacobians, SeabedHeightFactorOnASlopedPlane) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(500 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_bk.translation() = randomVector(rng, 3.0);
+    const FeatureObservation anchor = randomObservation(rng);
+    const SeabedPlane plane{-2.5 + randomVector(rng, 0.5).x(), randomVector(rng, 4.0).head<2>(),
+                            randomVector(rng, 0.15).head<2>()};
+    const SeabedHeightFactor factor(anchor, plane, 0.3);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {3.0 + randomVector(rng, 1.0).x()},
+                                               {randomVector(rng, 0.02).x()}};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
+                                                 "sloped seabed seed " + std::to_string(seed)));
+    // A horizontal move along the gradient by d changes the residual by |g| d (the seabed rises).
+    std::vector<std::vector<double>> moved = params;
+    const Eigen::Vector2d step = 0.8 * plane.slope.normalized();
+    moved[0][0] += step.x();
+    moved[0][1] += step.y();
+    EXPECT_NEAR(test::evaluateResidual(factor, moved)(0) - test::evaluateResidual(factor, params)(0),
+                plane.slope.dot(step) / 0.3, 1e-9);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(SonarDepth, SlopedPlaneExplainsASlopingSeabedThatTheHorizontalOneCannot) {
+  // Level body 3 m above a seabed sloping 4 deg up towards +x; the sonar hits it right below.
+  Eigen::Isometry3d T_down = Eigen::Isometry3d::Identity();
+  T_down.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Isometry3d T_l_b = Eigen::Isometry3d::Identity();
+  const double g = std::tan(4.0 * M_PI / 180.0);
+  const Eigen::Vector2d slope(g, 0.0);
+  // Camera looking straight down from the body origin: the ray of uv hits z = -3 + g x.
+  FeatureObservation anchor;
+  anchor.uv = Eigen::Vector2d(0.5, 0.0);  // camera x = body x (rotation about x keeps it)
+  const double z_c = 3.0 / (1.0 + g * 0.5);  // depth where -z_c = -3 + g (0.5 z_c)
+  const double lambda = z_c * std::sqrt(1.0 + 0.25);
+  EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0, nullptr, slope), 0.0, 1e-12);
+  // The horizontal plane sees the feature 1.4 m from the beam 0.1 m too high.
+  EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0), -g * 0.5 * z_c, 1e-12);
+  EXPECT_GT(std::abs(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0)), 0.09);
+  EXPECT_NEAR(SeabedPlane({-3.0, Eigen::Vector2d::Zero(), slope}).heightAt(Eigen::Vector2d(0.5 * z_c, 0.0)),
+              -z_c, 1e-12);
 }
 
 TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
@@ -257,21 +339,21 @@ TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
   const double range = 3.2;
   const double h = (T_l_bk * (T_b_s * Eigen::Vector3d(0.0, 0.0, range))).z();
   for (double lambda : {2.5, 3.5, 4.5})
-    EXPECT_NEAR(seabedHeightResidual(anchor, h, T_l_bk, T_b_c, lambda, 0.01),
+    EXPECT_NEAR(seabedHeightResidual(anchor, SeabedPlane{h}, T_l_bk, T_b_c, lambda, 0.01),
                 sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, 0.01), 1e-12);
   SonarDepthOptions options;
   EXPECT_NEAR(options.carriedSigma(0.06, 0.0), 0.06, 1e-15);
   EXPECT_NEAR(options.carriedSigma(0.06, 8.0), std::hypot(0.06, 0.05 * 8.0), 1e-15);
   // 0.3 m off: inconsistent next to the fix, consistent 10 m away (sigma 0.5 m).
   const double lambda_on = 3.5;
-  const double r_on = seabedHeightResidual(anchor, h, T_l_bk, T_b_c, lambda_on, 0.0);
+  const double r_on = seabedHeightResidual(anchor, SeabedPlane{h}, T_l_bk, T_b_c, lambda_on, 0.0);
   options.gate_max_height_difference = 1.0;
-  EXPECT_FALSE(seabedHeightGate(anchor, h + 0.3 - r_on, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 0.0),
+  EXPECT_FALSE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 0.0),
                                 options).consistent);
-  EXPECT_TRUE(seabedHeightGate(anchor, h + 0.3 - r_on, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 10.0),
+  EXPECT_TRUE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 10.0),
                                options).consistent);
-  EXPECT_THROW(SeabedHeightFactor(anchor, std::nan(""), 0.1), std::invalid_argument);
-  EXPECT_THROW(SeabedHeightFactor(anchor, 0.0, 0.0), std::invalid_argument);
+  EXPECT_THROW(SeabedHeightFactor(anchor, SeabedPlane{std::nan("")}, 0.1), std::invalid_argument);
+  EXPECT_THROW(SeabedHeightFactor(anchor, SeabedPlane{0.0}, 0.0), std::invalid_argument);
 }
 
 TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
@@ -301,6 +383,53 @@ TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
   loose.gate_max_height_difference = 0.1;  // absolute gate alone rejects it
   EXPECT_FALSE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0, sigma, loose).consistent);
   (void)rng;
+}
+
+TEST(FactorJacobians, PressureDepthFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(600 + seed);
+    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
+    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_bk.translation() = randomVector(rng, 3.0);
+    const Eigen::Vector3d p_bp = randomVector(rng, 0.5);
+    const PressureDepthFactor factor(8.0 + randomVector(rng, 2.0).x(), p_bp, 0.01);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), {12.0 + randomVector(rng, 1.0).x()}};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kEuclid}, kStep, kTol,
+                                                 "pressure seed " + std::to_string(seed)));
+    // It pins the port's absolute height: raising the body by 0.2 m or the surface by 0.2 m
+    // moves the residual by +-0.2 m / sigma; a horizontal move changes nothing.
+    std::vector<std::vector<double>> raised = params, surface = params, moved = params;
+    raised[0][2] += 0.2;
+    surface[1][0] += 0.2;
+    moved[0][0] += 1.0;
+    const double r0 = test::evaluateResidual(factor, params)(0);
+    EXPECT_NEAR(test::evaluateResidual(factor, raised)(0), r0 + 20.0, 1e-9);
+    EXPECT_NEAR(test::evaluateResidual(factor, surface)(0), r0 - 20.0, 1e-9);
+    EXPECT_NEAR(test::evaluateResidual(factor, moved)(0), r0, 1e-12);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+  // At the truth (port 10 m below a surface at z = 4) the residual vanishes.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(1.0, 2.0, -6.2);
+  EXPECT_NEAR(pressureDepthResidual(10.0, Eigen::Vector3d(0.0, 0.0, 0.2), T, 4.0), 0.0, 1e-12);
+  EXPECT_THROW(PressureDepthFactor(std::nan(""), Eigen::Vector3d::Zero(), 0.01), std::invalid_argument);
+  EXPECT_THROW(PressureDepthFactor(1.0, Eigen::Vector3d::Zero(), 0.0), std::invalid_argument);
+}
+
+TEST(FactorJacobians, SeabedSlopeRandomWalkAndPrior) {
+  const SlopeRandomWalkFactor walk(0.05);
+  std::vector<std::vector<double>> params = {{0.03, -0.02}, {0.05, 0.01}};
+  test::checkJacobians(walk, params, {kEuclid, kEuclid}, kStep, kTol, "slope walk");
+  const Eigen::Vector2d r = test::evaluateResidual(walk, params);
+  EXPECT_NEAR(r(0), 0.02 / 0.05, 1e-12);
+  EXPECT_NEAR(r(1), 0.03 / 0.05, 1e-12);
+  const SlopePriorFactor prior(Eigen::Vector2d(0.01, 0.0), 0.1);
+  std::vector<std::vector<double>> one = {{0.03, -0.02}};
+  test::checkJacobians(prior, one, {kEuclid}, kStep, kTol, "slope prior");
+  EXPECT_NEAR(test::evaluateResidual(prior, one)(0), 0.2, 1e-12);
+  EXPECT_THROW(SlopeRandomWalkFactor(0.0), std::invalid_argument);
+  EXPECT_THROW(SlopePriorFactor(Eigen::Vector2d::Zero(), -1.0), std::invalid_argument);
 }
 
 TEST(FactorJacobians, PosePriorFactor) {

@@ -107,6 +107,18 @@ RpeResult computeRpe(const std::vector<StampedPose>& gt, const std::vector<Stamp
   return r;
 }
 
+std::vector<double> tiltErrorsDeg(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est) {
+  checkEqualLength(gt, est);
+  std::vector<double> errors;
+  errors.reserve(gt.size());
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    const Eigen::Vector3d up_gt = gt[i].q.conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_est = est[i].q.conjugate() * Eigen::Vector3d::UnitZ();
+    errors.push_back(std::atan2(up_gt.cross(up_est).norm(), up_gt.dot(up_est)) * 180.0 / M_PI);
+  }
+  return errors;
+}
+
 AlignedErrors evaluateAligned(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est,
                               AlignmentMode mode, double rpe_delta_m) {
   checkEqualLength(gt, est);
@@ -118,6 +130,7 @@ AlignedErrors evaluateAligned(const std::vector<StampedPose>& gt, const std::vec
   out.rot_errors_deg = rotationErrorsDeg(gt, out.est_aligned);
   out.ate = ErrorStats::compute(out.trans_errors_m);
   out.rot = ErrorStats::compute(out.rot_errors_deg);
+  out.tilt = ErrorStats::compute(tiltErrorsDeg(gt, out.est_aligned));
   const double distance = pathLength(gt);
   out.ate_rmse_pct = distance > 0.0 ? 100.0 * out.ate.rmse / distance : 0.0;
   out.rpe = computeRpe(gt, out.est_aligned, rpe_delta_m);

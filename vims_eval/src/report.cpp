@@ -131,6 +131,9 @@ std::string trajectorySummaryLine(const TrajectoryEvaluation& ev) {
      << "_trans_pct=" << num(100.0 * rpe_trans / primary.rpe.delta_m, 4) << " " << rpe
      << "_rot_deg=" << num(statOrNan(primary.rpe.rot, primary.rpe.rot.rmse), 4) << " " << rpe
      << "_pairs=" << primary.rpe.pairs.size();
+  // Tilt after the yaw-only alignment when there is one: an SE3 fit may tilt the estimate.
+  const AlignedErrors* yaw_only = ev.find(AlignmentMode::kPosYaw);
+  os << " tilt_rmse_deg=" << num((yaw_only ? *yaw_only : primary).tilt.rmse, 4);
   return os.str();
 }
 
@@ -156,6 +159,7 @@ YAML::Node trajectoryToYaml(const TrajectoryEvaluation& ev) {
     a["ate_m"] = statsNode(r.ate);
     a["ate_rmse_pct"] = yamlNumber(r.ate_rmse_pct);
     a["rot_deg"] = statsNode(r.rot);
+    a["tilt_deg"] = statsNode(r.tilt);
     YAML::Node rpe;
     rpe["delta_m"] = yamlNumber(r.rpe.delta_m);
     rpe["pairs"] = r.rpe.pairs.size();

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <mutex>
 #include <numeric>
 #include <optional>
@@ -187,6 +188,9 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   tracker_worker_ = std::make_unique<TrackerWorker>(tracker_.get(), options_.threads == 2);
   estimator_ = std::make_unique<VioEstimator>(sequence_, config_.estimator, logger_);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
+  seabed_csv_ = std::make_unique<std::ofstream>((out / "seabed.csv").string());
+  if (!*seabed_csv_) throw std::runtime_error("cannot write " + (out / "seabed.csv").string());
+  *seabed_csv_ << "t,body_z,seabed_z,slope_x,slope_y,sonar_factors,pressure_factors\n" << std::setprecision(10);
   if (options_.vio_only) {
     if (!options_.map_load.empty() || !options_.map_save.empty())
       throw std::runtime_error("--vio-only runs no pose graph: it takes no map to load or save");
@@ -279,6 +283,10 @@ void OfflinePipeline::drainEstimator() {
     // vio.tum: the body pose at the image stamp as recorded (the estimator moves its state from
     // the td-corrected exposure time to the stamp), so the file lives on the bag clock.
     vio_tum_->write(r.t_stamp, r.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(r.T_odom_b_at_stamp.linear()));
+    *seabed_csv_ << r.t_stamp << ',' << r.T_odom_b.translation().z() << ','
+                 << (r.seabed_height ? *r.seabed_height : std::numeric_limits<double>::quiet_NaN()) << ','
+                 << r.seabed_slope.x() << ',' << r.seabed_slope.y() << ',' << r.sonar_factors << ','
+                 << r.pressure_factors << '\n';
     ++vio_frames_;
   }
   for (KeyframeData& keyframe : estimator_->takeKeyframes()) {
@@ -304,6 +312,8 @@ void OfflinePipeline::onSonar(const SonarRange& range) {
     estimator_->feedSonar(result);
   }
 }
+
+void OfflinePipeline::onPressure(const PressureSample& sample) { estimator_->feedPressure(sample); }
 
 void OfflinePipeline::onMag(const MagSample& sample) {
   signature_windows_.clear();
@@ -369,6 +379,7 @@ OfflineSummary OfflinePipeline::run() {
   handlers.image = [this](const CameraFrame& f) { onImage(f); };
   handlers.sonar = [this](const SonarRange& r) { onSonar(r); };
   handlers.mag = [this](const MagSample& m) { onMag(m); };
+  handlers.pressure = [this](const PressureSample& p) { onPressure(p); };
   handlers.rejected = [this](const std::string& topic, double t, const std::string& why) {
     logger_->warnThrottled("offline", "reject" + topic, t, 5.0, "dropping a message on " + topic + ": " + why);
   };
@@ -384,6 +395,7 @@ OfflineSummary OfflinePipeline::run() {
   sonar_csv_->flush();
   drainEstimator();
   vio_tum_->flush();
+  seabed_csv_->flush();
   if (pose_graph_) finishPoseGraph(&summary);
   summary.frontend_ms_p50 = frontend_ms_.percentile(0.5);
   summary.frontend_ms_p99 = frontend_ms_.percentile(0.99);

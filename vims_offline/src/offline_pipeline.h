@@ -9,6 +9,7 @@
 
 #include <exception>
 #include <map>
+#include <fstream>
 #include <memory>
 #include <string>
 
@@ -134,6 +135,7 @@ class OfflinePipeline {
   void onImage(const CameraFrame& frame);
   void onSonar(const SonarRange& range);
   void onMag(const MagSample& sample);
+  void onPressure(const PressureSample& sample);
   void writeSummary(const OfflineSummary& summary) const;
   void drainEstimator();
   void drainLoopAttempts();
@@ -172,6 +174,8 @@ class OfflinePipeline {
   std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs tracker_, inline or on its thread
   std::unique_ptr<VioEstimator> estimator_;
   std::unique_ptr<TumWriter> vio_tum_;
+  /// seabed.csv: the estimated seabed under the vehicle at every VIO frame (docs/offline_outputs.md).
+  std::unique_ptr<std::ofstream> seabed_csv_;
   // Per-call latencies [ms] in fixed-size histograms: memory must not grow with the run's length.
   LatencyHistogram frontend_ms_;
   LatencyHistogram backend_ms_;

@@ -30,6 +30,14 @@ bool toSonarRange(const sensor_msgs::Range& msg, SonarRange* out, std::string* w
   return true;
 }
 
+bool toPressureSample(const sensor_msgs::FluidPressure& msg, PressureSample* out, std::string* why) {
+  if (!std::isfinite(msg.fluid_pressure)) return fail(why, "fluid_pressure is not finite");
+  if (!(msg.fluid_pressure > 0.0)) return fail(why, "fluid_pressure is not positive (absolute pascal expected)");
+  out->t = toSec(msg.header.stamp);
+  out->pressure_pa = msg.fluid_pressure;
+  return true;
+}
+
 bool toMagSample(const sensor_msgs::MagneticField& msg, MagSample* out, std::string* why) {
   const auto& b = msg.magnetic_field;
   if (!finite3(b.x, b.y, b.z)) return fail(why, "non-finite magnetic_field");

@@ -75,4 +75,36 @@ bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string
   return true;
 }
 
+bool toSeabedMarkerMsg(double t, const Eigen::Vector2d& body_xy, double seabed_z, const Eigen::Vector2d& slope,
+                       double size_m, const std::string& frame, visualization_msgs::Marker* out, std::string* why) {
+  if (!body_xy.allFinite() || !std::isfinite(seabed_z) || !slope.allFinite() || !(size_m > 0.0)) {
+    if (why) *why = "non-finite seabed";
+    return false;
+  }
+  if (!toRosTime(t, &out->header.stamp, why)) return false;
+  out->header.frame_id = frame;
+  out->ns = "seabed";
+  out->id = 0;
+  out->type = visualization_msgs::Marker::CUBE;
+  out->action = visualization_msgs::Marker::ADD;
+  out->pose.position.x = body_xy.x();
+  out->pose.position.y = body_xy.y();
+  out->pose.position.z = seabed_z;
+  // The plate's z axis along the plane's normal (-g_x, -g_y, 1).
+  const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(
+      Eigen::Vector3d::UnitZ(), Eigen::Vector3d(-slope.x(), -slope.y(), 1.0).normalized());
+  out->pose.orientation.x = q.x();
+  out->pose.orientation.y = q.y();
+  out->pose.orientation.z = q.z();
+  out->pose.orientation.w = q.w();
+  out->scale.x = size_m;
+  out->scale.y = size_m;
+  out->scale.z = 0.01;
+  out->color.r = 0.85f;
+  out->color.g = 0.65f;
+  out->color.b = 0.3f;
+  out->color.a = 0.5f;
+  return true;
+}
+
 }  // namespace vims

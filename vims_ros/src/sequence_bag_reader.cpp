@@ -16,12 +16,13 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
   } catch (const rosbag::BagException& e) {
     throw std::runtime_error("cannot open bag '" + bag_path + "': " + e.what());
   }
-  const std::map<std::string, std::string> expected = {
+  std::map<std::string, std::string> expected = {
       {config_.topics.image, "sensor_msgs/Image"},
       {config_.topics.imu, "sensor_msgs/Imu"},
       {config_.topics.sonar, "sensor_msgs/Range"},
       {config_.topics.mag, "sensor_msgs/MagneticField"},
   };
+  if (config_.pressure) expected[config_.topics.pressure] = "sensor_msgs/FluidPressure";
   rosbag::View all(*bag_);
   std::map<std::string, std::string> present;
   for (const rosbag::ConnectionInfo* info : all.getConnections()) present[info->topic] = info->datatype;
@@ -54,8 +55,9 @@ void SequenceBagReader::requireTopic(const std::string& topic) const {
 }
 
 std::map<std::string, TopicStats> SequenceBagReader::run(const Handlers& handlers) {
-  const std::vector<std::string> topics = {config_.topics.image, config_.topics.imu, config_.topics.sonar,
-                                           config_.topics.mag};
+  std::vector<std::string> topics = {config_.topics.image, config_.topics.imu, config_.topics.sonar,
+                                     config_.topics.mag};
+  if (config_.pressure) topics.push_back(config_.topics.pressure);
   std::map<std::string, TopicStats> stats;
   rosbag::View view(*bag_, rosbag::TopicQuery(topics));
   const double span = std::max(end_time_ - start_time_, 1e-9);
@@ -92,6 +94,14 @@ std::map<std::string, TopicStats> SequenceBagReader::run(const Handlers& handler
       const auto msg = m.instantiate<sensor_msgs::Range>();
       if (msg && toSonarRange(*msg, &sample, &why)) {
         if (handlers.sonar) handlers.sonar(sample);
+      } else {
+        reject(topic, t);
+      }
+    } else if (config_.pressure && topic == config_.topics.pressure) {
+      PressureSample sample;
+      const auto msg = m.instantiate<sensor_msgs::FluidPressure>();
+      if (msg && toPressureSample(*msg, &sample, &why)) {
+        if (handlers.pressure) handlers.pressure(sample);
       } else {
         reject(topic, t);
       }

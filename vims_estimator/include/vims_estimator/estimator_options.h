@@ -10,6 +10,7 @@
 #include "vims_common/config_reader.h"
 #include "vims_estimator/factor_options.h"
 #include "vims_estimator/initialization/visual_inertial_initializer.h"
+#include "vims_estimator/seabed_options.h"
 
 namespace vims {
 
@@ -140,6 +141,10 @@ struct EstimatorOptions {
   double failure_lost_tracking_s = 10.0;
 
   FactorOptions factors;
+  /// The seabed under the sonar (section `seabed`, seabed_options.h): horizontal or a local plane.
+  SeabedModelOptions seabed;
+  /// The pressure depth factor (section `pressure`), used when the sequence has the sensor.
+  PressureOptions pressure;
   /// Sonar-free initialisation (use_sonar: false): SfM + IMU alignment (section
   /// `visual_inertial_init`, visual_inertial_initializer.h).
   VisualInertialInitOptions visual_inertial_init;

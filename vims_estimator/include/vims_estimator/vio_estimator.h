@@ -14,6 +14,11 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+
+namespace ceres {
+class Problem;
+class LossFunction;
+}  // namespace ceres
 #include <deque>
 #include <map>
 #include <memory>
@@ -28,6 +33,7 @@
 #include "vims_estimator/estimator_options.h"
 #include "vims_estimator/imu_preintegration.h"
 #include "vims_estimator/marginalization.h"
+#include "vims_estimator/pressure_depth_filter.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_tracking/feature_tracker.h"
 
@@ -60,6 +66,11 @@ struct VioFrameResult {
   bool keyframe = false;     ///< the previous frame was kept as a keyframe at this step
   int features_in_window = 0;
   int sonar_factors = 0;
+  int pressure_factors = 0;
+  /// Seabed gradient (dh/dx, dh/dy) under the newest frame in the VIO frame (zero for the
+  /// horizontal seabed model); its height below the body is seabed_height - body z when set.
+  Eigen::Vector2d seabed_slope = Eigen::Vector2d::Zero();
+  std::optional<double> seabed_height;  ///< z of the newest sonar hit in the VIO frame [m]
   double backend_ms = 0.0;   ///< wall time of this frame's optimisation and marginalisation
 };
 
@@ -76,6 +87,7 @@ struct SeabedFix {
   double height = 0.0;                          ///< z of the beam's seabed hit [m]
   Eigen::Vector2d xy = Eigen::Vector2d::Zero();  ///< horizontal position of the keyframe [m]
   double t = 0.0;                               ///< the keyframe's state time [s]
+  Eigen::Vector2d slope = Eigen::Vector2d::Zero();  ///< seabed gradient there (local_plane model)
 };
 
 class VioEstimator {
@@ -90,6 +102,9 @@ class VioEstimator {
   void feedImu(const ImuSample& sample);
   /// Filtered sonar range: only accepted results with an estimate are used.
   void feedSonar(const SonarFilterResult& result);
+  /// Pressure sample (sequences with a pressure sensor): converted to the port's depth with the
+  /// YAML's calibration; spikes and non-finite values are dropped with a warning.
+  void feedPressure(const PressureSample& sample);
   /// Tracked frame (the tracker runs before). `image` (optional) is kept for KeyframeData.
   void feedFrame(const TrackedFrame& frame, const cv::Mat& image = cv::Mat());
 
@@ -124,6 +139,9 @@ class VioEstimator {
   void addObservations(Frame* frame, const TrackedFrame& tracked);
   double parallaxPx(const Frame& a, const Frame& b, int* common) const;
   std::optional<double> sonarRangeAt(double t) const;
+  std::optional<double> pressureDepthAt(double t) const;
+  bool usePressure() const { return options_.pressure.enabled && pressure_filter_ != nullptr; }
+  bool slopedSeabed() const { return options_.use_sonar && options_.seabed.model == SeabedModel::kLocalPlane; }
   void initializeFeatureDepths();
   bool seabedDepth(const Feature& feature, double* lambda) const;
   bool triangulate(const Feature& feature, double* lambda) const;
@@ -166,6 +184,22 @@ class VioEstimator {
 
   std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results
+  /// Pressure: the filter (null without a pressure sensor in the sequence), the accepted (t,
+  /// depth) samples, the surface height in this session's frame l (a state, once initialised).
+  std::unique_ptr<PressureDepthFilter> pressure_filter_;
+  std::deque<std::pair<double, double>> pressure_;
+  double surface_z_[1] = {0.0};
+  bool surface_initialized_ = false;
+  double pressure_sigma_ = 0.01;
+  bool warned_above_surface_ = false;
+  /// Sets the surface height from the first window frame with a depth, once per session.
+  void initializeSurface();
+  /// Pressure factors of the window frames with a depth (only the newest: the surface constant);
+  /// returns how many.
+  int addPressureFactors(ceres::Problem* problem, ceres::LossFunction* loss, bool newest_only);
+  /// local_plane: every frame's gradient block, their random walk and the session's first prior.
+  void addSeabedSlopeBlocks(ceres::Problem* problem);
+  double slopeStepSigma(const Frame& a, const Frame& b) const;
   std::deque<std::pair<TrackedFrame, cv::Mat>> pending_;
   /// Frames collected for the visual-inertial initialisation (use_sonar: false), oldest first.
   struct InitCandidate {

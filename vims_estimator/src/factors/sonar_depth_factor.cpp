@@ -89,44 +89,58 @@ SonarGateResult gate(double height_difference, double sigma, const SonarDepthOpt
 }
 }  // namespace
 
+Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen::Matrix3d& R_l_b) {
+  // e_z^T R_k = third row of R_k: the body-frame direction whose component is height in l.
+  if (slope.isZero(0.0)) return R_l_b.row(2);
+  return Eigen::RowVector3d(-slope.x(), -slope.y(), 1.0) * R_l_b;
+}
+
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
-                          SonarDepthJacobians* J) {
-  // e_z^T R_k = third row of R_k: the body-frame direction whose component is height in l.
-  const Eigen::RowVector3d up_in_b = T_l_bk.linear().row(2);
+                          SonarDepthJacobians* J, const Eigen::Vector2d& slope) {
+  const Eigen::RowVector3d n_in_b = seabedNormalInBody(slope, T_l_bk.linear());
   const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
-  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, up_in_b, J);
+  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
   const Eigen::Vector3d d_b = s_b - f_b;
-  const double r = up_in_b.dot(d_b);
+  const double r = n_in_b.dot(d_b);
   if (J != nullptr) {
     J->d_pose.leftCols<3>().setZero();
-    J->d_pose.rightCols<3>() = -up_in_b * so3::skew(d_b);
+    J->d_pose.rightCols<3>() = -n_in_b * so3::skew(d_b);
+    J->d_slope = -(T_l_bk.linear() * d_b).head<2>().transpose();
   }
   return r;
 }
 
-double seabedHeightResidual(const FeatureObservation& anchor, double seabed_height, const Eigen::Isometry3d& T_l_bk,
+double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane& plane, const Eigen::Isometry3d& T_l_bk,
                             const Eigen::Isometry3d& T_b_c, double lambda, double td, SonarDepthJacobians* J) {
-  const Eigen::RowVector3d up_in_b = T_l_bk.linear().row(2);
-  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, up_in_b, J);
-  const double r = seabed_height - T_l_bk.translation().z() - up_in_b.dot(f_b);
+  const Eigen::RowVector3d n_in_b = seabedNormalInBody(plane.slope, T_l_bk.linear());
+  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
+  // h + g.(f_xy - xy) - f_z = (h - g.xy) - n^T (p_k + R_k f_b); for g = 0 exactly h - p_z - (R_k f_b)_z.
+  double r = 0.0;
+  if (plane.slope.isZero(0.0)) {
+    r = plane.height - T_l_bk.translation().z() - n_in_b.dot(f_b);
+  } else {
+    const Eigen::RowVector3d n(-plane.slope.x(), -plane.slope.y(), 1.0);
+    r = plane.height - plane.slope.dot(plane.xy) - n.dot(T_l_bk.translation()) - n_in_b.dot(f_b);
+  }
   if (J != nullptr) {
-    J->d_pose.leftCols<3>() = Eigen::RowVector3d(0.0, 0.0, -1.0);
-    J->d_pose.rightCols<3>() = up_in_b * so3::skew(f_b);
+    J->d_pose.leftCols<3>() = Eigen::RowVector3d(plane.slope.x(), plane.slope.y(), -1.0);
+    J->d_pose.rightCols<3>() = n_in_b * so3::skew(f_b);
   }
   return r;
 }
 
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
-                               double td, double sigma, const SonarDepthOptions& options) {
-  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td), sigma, options);
+                               double td, double sigma, const SonarDepthOptions& options,
+                               const Eigen::Vector2d& slope) {
+  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td, nullptr, slope), sigma, options);
 }
 
-SonarGateResult seabedHeightGate(const FeatureObservation& anchor, double seabed_height,
+SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
                                  const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                  double td, double sigma, const SonarDepthOptions& options) {
-  return gate(seabedHeightResidual(anchor, seabed_height, T_l_bk, T_b_c, lambda, td), sigma, options);
+  return gate(seabedHeightResidual(anchor, plane, T_l_bk, T_b_c, lambda, td), sigma, options);
 }
 
 SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
@@ -144,15 +158,37 @@ bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residua
   return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);
 }
 
-SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, double seabed_height, double sigma)
-    : anchor_(anchor), seabed_height_(seabed_height), inv_sigma_(1.0 / sigma) {
-  if (!std::isfinite(seabed_height)) throw std::invalid_argument("SeabedHeightFactor: height must be finite");
+SlopedSonarDepthFactor::SlopedSonarDepthFactor(const FeatureObservation& anchor, double range,
+                                               const Eigen::Isometry3d& T_b_s, double sigma)
+    : anchor_(anchor), range_(range), T_b_s_(T_b_s), inv_sigma_(1.0 / sigma) {
+  if (!(std::isfinite(range) && range > 0.0)) throw std::invalid_argument("SlopedSonarDepthFactor: range must be > 0");
+  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SlopedSonarDepthFactor: sigma must be > 0");
+}
+
+bool SlopedSonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  SonarDepthJacobians J;
+  const Eigen::Vector2d slope(parameters[4][0], parameters[4][1]);
+  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, poseBlockToIsometry(parameters[0]),
+                                      poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
+                                      jacobians ? &J : nullptr, slope);
+  if (!writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians)) return false;
+  if (jacobians && jacobians[4]) {
+    jacobians[4][0] = inv_sigma_ * J.d_slope(0);
+    jacobians[4][1] = inv_sigma_ * J.d_slope(1);
+  }
+  return true;
+}
+
+SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, const SeabedPlane& plane, double sigma)
+    : anchor_(anchor), plane_(plane), inv_sigma_(1.0 / sigma) {
+  if (!std::isfinite(plane.height) || !plane.xy.allFinite() || !plane.slope.allFinite())
+    throw std::invalid_argument("SeabedHeightFactor: the plane must be finite");
   if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SeabedHeightFactor: sigma must be > 0");
 }
 
 bool SeabedHeightFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   SonarDepthJacobians J;
-  const double r = seabedHeightResidual(anchor_, seabed_height_, poseBlockToIsometry(parameters[0]),
+  const double r = seabedHeightResidual(anchor_, plane_, poseBlockToIsometry(parameters[0]),
                                         poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
                                         jacobians ? &J : nullptr);
   return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);

@@ -8,12 +8,16 @@
 // Subscribes  <topics.image of the sequence YAML> (sensor_msgs/Image, mono8/bgr8/...; others rejected)
 //             <topics.imu of the sequence YAML>   (sensor_msgs/Imu)
 //             sonar/filtered (sensor_msgs/Range): accepted ranges of vims_sonar_filter_node
+//             <topics.pressure of the sequence YAML> (sensor_msgs/FluidPressure), only when the
+//                              sequence YAML has a pressure section (contract version 2)
 // Publishes   vio/odometry      (nav_msgs/Odometry) optimised body pose at every processed frame,
 //                               odom -> base_link, stamped with the image stamp
 //             vio/imu_odometry  (nav_msgs/Odometry) IMU-rate pose propagated from the newest frame
 //             vio/path          (nav_msgs/Path) the frame-rate poses of the current VIO session,
 //                               every ~path_publish_period_s
 //             vio/keyframe      (vims/Keyframe) keyframes for vims_pose_graph_node
+//             vio/seabed        (visualization_msgs/Marker) the estimated local seabed plane
+//                               under the vehicle (published while someone subscribes)
 //             vio/tracked_image (sensor_msgs/Image, bgr8) the image with the tracked features
 //                               (drawn only while someone subscribes)
 //             tf odom -> base_link (REP 105) at IMU rate (the propagated pose)
@@ -23,7 +27,7 @@
 //                              sonar, magnetometer and pose_graph are allowed and ignored here)
 //             ~mode            (string, default full): the ablation mode as vims_offline --mode;
 //                              no_sonar sets estimator.use_sonar false, the others do not concern the VIO
-//             ~image_topic, ~imu_topic (string, optional): instead of topics.image / topics.imu
+//             ~image_topic, ~imu_topic, ~pressure_topic (string, optional): instead of topics.*
 //             ~odom_frame_id, ~body_frame_id (string, default odom, base_link)
 //             ~publish_tf (bool, default true)
 //             ~queue_size (int, default 4000): inputs waiting for the processing thread (~20 s at
@@ -42,6 +46,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Range.h>
+#include <visualization_msgs/Marker.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <vims/Keyframe.h>
 
@@ -73,10 +78,13 @@
 namespace {
 
 constexpr double kWarnThrottlePeriodS = 5.0;
+/// [m] Side of the seabed plate drawn under the vehicle: about the camera footprint at 3 m.
+constexpr double kSeabedMarkerSizeM = 3.0;
 
 struct NodeSettings {
   std::string image_topic;
   std::string imu_topic;
+  std::string pressure_topic;
   std::string odom_frame_id = "odom";
   std::string body_frame_id = "base_link";
   bool publish_tf = true;
@@ -102,7 +110,7 @@ struct VioConfig {
 };
 
 /// One input for the processing thread, in arrival order.
-using InputEvent = std::variant<vims::ImuSample, vims::CameraFrame, vims::SonarFilterResult>;
+using InputEvent = std::variant<vims::ImuSample, vims::CameraFrame, vims::SonarFilterResult, vims::PressureSample>;
 
 class EstimatorNode {
  public:
@@ -123,12 +131,18 @@ class EstimatorNode {
     path_pub_ = nh.advertise<nav_msgs::Path>("vio/path", 2, true);
     keyframe_pub_ = nh.advertise<vims::Keyframe>("vio/keyframe", 20);
     tracked_image_pub_ = nh.advertise<sensor_msgs::Image>("vio/tracked_image", 2);
+    seabed_pub_ = nh.advertise<visualization_msgs::Marker>("vio/seabed", 2);
     path_.header.frame_id = settings_.odom_frame_id;
     // Queues of the subscriptions: ~2 s of each sensor; the processing thread's own queue absorbs
     // the optimiser's latency.
     imu_sub_ = nh.subscribe(settings_.imu_topic, 400, &EstimatorNode::onImu, this, ros::TransportHints().tcpNoDelay());
     image_sub_ = nh.subscribe(settings_.image_topic, 20, &EstimatorNode::onImage, this);
     sonar_sub_ = nh.subscribe("sonar/filtered", 50, &EstimatorNode::onSonar, this);
+    if (sequence_.pressure) {
+      pressure_sub_ = nh.subscribe(settings_.pressure_topic, 100, &EstimatorNode::onPressure, this);
+      ROS_INFO_STREAM("estimator: pressure depth from " << pressure_sub_.getTopic()
+                                                        << (config.estimator.pressure.enabled ? "" : " (estimator.pressure.enabled false: ignored)"));
+    }
     worker_ = std::thread([this] { processLoop(); });
     ROS_INFO_STREAM("estimator: " << image_sub_.getTopic() << " + " << imu_sub_.getTopic() << " + "
                                   << sonar_sub_.getTopic() << " -> " << odometry_pub_.getTopic() << ", "
@@ -145,6 +159,7 @@ class EstimatorNode {
     imu_sub_.shutdown();
     image_sub_.shutdown();
     sonar_sub_.shutdown();
+    pressure_sub_.shutdown();
     queue_.close();
     if (worker_.joinable()) worker_.join();
     if (vio_tum_) {
@@ -201,6 +216,16 @@ class EstimatorNode {
     enqueue(result, "sonar range");
   }
 
+  void onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg) {
+    vims::PressureSample sample;
+    std::string why;
+    if (!vims::toPressureSample(*msg, &sample, &why)) {
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "pressure sample dropped: " << why);
+      return;
+    }
+    enqueue(sample, "pressure sample");
+  }
+
   /// The estimator resets on its own when time goes backwards; this says why in the node's log.
   static void checkClock(double* last, double t, const char* what) {
     if (t < *last) {
@@ -225,6 +250,8 @@ class EstimatorNode {
         processImu(*imu);
       } else if (const auto* frame = std::get_if<vims::CameraFrame>(&*event)) {
         processImage(*frame);
+      } else if (const auto* pressure = std::get_if<vims::PressureSample>(&*event)) {
+        estimator_.feedPressure(*pressure);
       } else {
         estimator_.feedSonar(std::get<vims::SonarFilterResult>(*event));
         drainEstimator();  // a frame waiting for this range may have been processed
@@ -294,6 +321,12 @@ class EstimatorNode {
       return;
     }
     odometry_pub_.publish(odometry);
+    visualization_msgs::Marker seabed;
+    if (r.seabed_height && seabed_pub_.getNumSubscribers() > 0 &&
+        vims::toSeabedMarkerMsg(r.t_stamp, r.T_odom_b.translation().head<2>(), *r.seabed_height, r.seabed_slope,
+                                kSeabedMarkerSizeM, settings_.odom_frame_id, &seabed, &why)) {
+      seabed_pub_.publish(seabed);
+    }
     // The path shows one VIO session: poses of different sessions live in unrelated odom frames.
     if (path_session_ != r.session) {
       if (!path_.poses.empty()) ROS_INFO_STREAM("VIO session " << r.session << ": the VIO path starts anew");
@@ -371,8 +404,8 @@ class EstimatorNode {
 
   vims::BoundedQueue<InputEvent> queue_;
   std::thread worker_;
-  ros::Publisher odometry_pub_, imu_odometry_pub_, path_pub_, keyframe_pub_, tracked_image_pub_;
-  ros::Subscriber imu_sub_, image_sub_, sonar_sub_;
+  ros::Publisher odometry_pub_, imu_odometry_pub_, path_pub_, keyframe_pub_, tracked_image_pub_, seabed_pub_;
+  ros::Subscriber imu_sub_, image_sub_, sonar_sub_, pressure_sub_;
 };
 
 }  // namespace
@@ -420,6 +453,7 @@ int main(int argc, char** argv) {
     config.estimator.use_sonar = mode != "no_sonar" && config.estimator.use_sonar;
     settings.image_topic = pnh.param<std::string>("image_topic", sequence.topics.image);
     settings.imu_topic = pnh.param<std::string>("imu_topic", sequence.topics.imu);
+    settings.pressure_topic = pnh.param<std::string>("pressure_topic", sequence.topics.pressure);
     ROS_INFO_STREAM("tracker options:\n" << config.tracker.toYaml() << "\nestimator options:\n"
                                          << config.estimator.toYaml());
     node = std::make_unique<EstimatorNode>(nh, sequence, config, settings);

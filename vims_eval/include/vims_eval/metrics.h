@@ -42,6 +42,10 @@ double pathLength(const std::vector<StampedPose>& poses);
 std::vector<double> translationErrors(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est);
 /// Angle of R_gt_i^T R_est_i [deg], in [0, 180].
 std::vector<double> rotationErrorsDeg(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est);
+/// Tilt error [deg] per pose: the angle between the world's vertical seen from the true body and
+/// from the estimated body (R^T e_z), i.e. the roll/pitch part of the attitude error. A rotation of
+/// the estimate about the vertical (yaw alignment) does not change it.
+std::vector<double> tiltErrorsDeg(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est);
 /// Rotation angle of a unit quaternion [deg], in [0, 180].
 double rotationAngleDeg(const Eigen::Quaterniond& q);
 
@@ -72,6 +76,7 @@ struct AlignedErrors {
   ErrorStats ate;       ///< translation ATE [m]
   double ate_rmse_pct = 0.0;  ///< ate.rmse as a percentage of the ground-truth distance travelled
   ErrorStats rot;       ///< rotation error [deg]
+  ErrorStats tilt;      ///< tilt (roll/pitch) error [deg], tiltErrorsDeg
   RpeResult rpe;
 };
 

@@ -4,6 +4,7 @@
 /// offline runner so both see exactly the same data. Each conversion validates its input and
 /// returns false with a reason for anything a core must not see (NaN, wrong encoding, ...).
 
+#include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
@@ -23,6 +24,9 @@ bool toImuSample(const sensor_msgs::Imu& msg, ImuSample* out, std::string* why);
 /// Keeps +inf (REP 117: no return) and out-of-range values for the sonar filter to judge as
 /// dropouts; rejects NaN and a non-finite stamp.
 bool toSonarRange(const sensor_msgs::Range& msg, SonarRange* out, std::string* why);
+
+/// Rejects a non-finite or non-positive absolute pressure (pascal, contract version 2).
+bool toPressureSample(const sensor_msgs::FluidPressure& msg, PressureSample* out, std::string* why);
 
 /// Rejects non-finite field components.
 bool toMagSample(const sensor_msgs::MagneticField& msg, MagSample* out, std::string* why);

@@ -8,6 +8,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <visualization_msgs/Marker.h>
 
 #include <Eigen/Geometry>
 #include <string>
@@ -35,5 +36,11 @@ bool toTransformMsg(double t, const Eigen::Isometry3d& T_parent_child, const std
 /// A stamped pose (for nav_msgs/Path). False for a non-finite pose or an unusable time.
 bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string& frame, geometry_msgs::PoseStamped* out,
                       std::string* why);
+
+/// The estimated local seabed under the body for rviz: a thin square plate of side `size_m`
+/// centred below the body at height `seabed_z`, tilted to the plane of gradient `slope`
+/// (dh/dx, dh/dy) in the parent frame. False for non-finite input or an unusable time.
+bool toSeabedMarkerMsg(double t, const Eigen::Vector2d& body_xy, double seabed_z, const Eigen::Vector2d& slope,
+                       double size_m, const std::string& frame, visualization_msgs::Marker* out, std::string* why);
 
 }  // namespace vims

@@ -30,6 +30,8 @@ class SequenceBagReader {
     std::function<void(const CameraFrame&)> image;
     std::function<void(const SonarRange&)> sonar;
     std::function<void(const MagSample&)> mag;
+    /// Only for sequences whose YAML has a `pressure` section (contract version 2).
+    std::function<void(const PressureSample&)> pressure;
     /// A message the conversion refused: topic, bag time, reason.
     std::function<void(const std::string&, double, const std::string&)> rejected;
     /// Progress in [0, 1] of the bag's time span, called about every 1 % of it.

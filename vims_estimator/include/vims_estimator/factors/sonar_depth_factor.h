@@ -38,6 +38,18 @@
 /// the vehicle's height from the IMU-propagated window it keeps the scale that the sonar gave
 /// before the outage. sigma = sqrt(sigma_sonar^2 + (slope_std * D)^2) grows with the horizontal
 /// distance D from where h was measured (the seabed is locally, not globally, flat).
+///
+/// Local seabed plane (seabed model `local_plane`, docs/factors.md 5c): the seabed under keyframe
+/// k is a plane of gradient g = (dh/dx, dh/dy) in frame l, normal n = (-g_x, -g_y, 1). The
+/// feature lies on the plane through the beam's hit s_l, so the vertical distance between the
+/// plane and the feature at the feature's horizontal position is
+///
+///   r = (s_l)_z + g . ((f_l)_xy - (s_l)_xy) - (f_l)_z = n^T (s_l - f_l) = n^T R_k (s_b - f_b)
+///
+/// p_k still cancels; every Jacobian above holds with e_z replaced by n, and
+///   dr/dg = ((f_l - s_l)_x, (f_l - s_l)_y) = -(R_k (s_b - f_b))_xy.
+/// g = 0 is the horizontal plane of the paper. The carried height generalises in the same way:
+/// r = h + g . ((f_l)_xy - xy_h) - (f_l)_z with the plane (h, xy_h, g) of the last fix (constant).
 
 #include <ceres/sized_cost_function.h>
 
@@ -89,15 +101,32 @@ struct SonarDepthJacobians {
   Eigen::Matrix<double, 1, 6> d_extrinsic;
   double d_lambda = 0.0;
   double d_td = 0.0;
+  Eigen::Matrix<double, 1, 2> d_slope = Eigen::Matrix<double, 1, 2>::Zero();  ///< sonar depth only
 };
 
-/// The unwhitened residual r = (s_l)_z - (f_l)_z (file comment); Jacobians if non-null.
+/// A seabed plane in frame l known at one point: height `height` at horizontal position `xy`,
+/// gradient `slope` (dh/dx, dh/dy). slope = 0 is the horizontal seabed.
+struct SeabedPlane {
+  double height = 0.0;
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  Eigen::Vector2d slope = Eigen::Vector2d::Zero();
+  double heightAt(const Eigen::Vector2d& at) const { return height + slope.dot(at - xy); }
+};
+
+/// The plane's normal n = (-g_x, -g_y, 1) as seen from the body: n^T R_l_b (exactly the third row
+/// of R_l_b for g = 0, so the horizontal model's numbers do not depend on this generalisation).
+Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen::Matrix3d& R_l_b);
+
+/// The unwhitened residual r = n^T (s_l - f_l) (file comment; slope 0: (s_l)_z - (f_l)_z);
+/// Jacobians if non-null (d_slope included).
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
-                          SonarDepthJacobians* jacobians = nullptr);
+                          SonarDepthJacobians* jacobians = nullptr,
+                          const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
 
-/// The unwhitened seabed height residual r = h - (f_l)_z (file comment); Jacobians if non-null.
-double seabedHeightResidual(const FeatureObservation& anchor, double seabed_height, const Eigen::Isometry3d& T_l_bk,
+/// The unwhitened seabed height residual r = plane.heightAt((f_l)_xy) - (f_l)_z (file comment);
+/// Jacobians if non-null. The plane is a constant (the last sonar fix).
+double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane& plane, const Eigen::Isometry3d& T_l_bk,
                             const Eigen::Isometry3d& T_b_c, double lambda, double td,
                             SonarDepthJacobians* jacobians = nullptr);
 
@@ -112,10 +141,11 @@ struct SonarGateResult {
 /// chi2 > options.gate_chi2 or |r| > options.gate_max_height_difference (or r is not finite).
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
-                               double td, double sigma, const SonarDepthOptions& options);
+                               double td, double sigma, const SonarDepthOptions& options,
+                               const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
 
-/// The same gate on a seabed height residual (a carried height and its carriedSigma()).
-SonarGateResult seabedHeightGate(const FeatureObservation& anchor, double seabed_height,
+/// The same gate on a seabed height residual (a carried plane and its carriedSigma()).
+SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
                                  const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                  double td, double sigma, const SonarDepthOptions& options);
 
@@ -136,18 +166,35 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
   double inv_sigma_;
 };
 
-/// Ceres wrapper of the seabed height residual: parameter blocks [pose_k (7), T_b_c (7),
-/// lambda (1), td (1)]; returns r / sigma. Throws std::invalid_argument if the height is not
-/// finite or sigma is not > 0.
-class SeabedHeightFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
+/// The sonar depth factor on a local seabed plane whose gradient is a state (seabed model
+/// `local_plane`): parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1), slope_k (2)];
+/// returns r / sigma with r = n^T (s_l - f_l). Same argument checks as SonarDepthFactor.
+class SlopedSonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1, 2> {
  public:
-  SeabedHeightFactor(const FeatureObservation& anchor, double seabed_height, double sigma);
+  SlopedSonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                         double sigma);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   FeatureObservation anchor_;
-  double seabed_height_;
+  double range_;
+  Eigen::Isometry3d T_b_s_;
+  double inv_sigma_;
+};
+
+/// Ceres wrapper of the seabed height residual: parameter blocks [pose_k (7), T_b_c (7),
+/// lambda (1), td (1)]; returns r / sigma. Throws std::invalid_argument if the plane is not
+/// finite or sigma is not > 0.
+class SeabedHeightFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
+ public:
+  SeabedHeightFactor(const FeatureObservation& anchor, const SeabedPlane& plane, double sigma);
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  FeatureObservation anchor_;
+  SeabedPlane plane_;
   double inv_sigma_;
 };
 

@@ -1,0 +1,314 @@
+// The window solves of the sliding-window VIO and the sonar ranges they use.
+#include "vims_estimator/vio_estimator.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "vims_estimator/factors/imu_factor.h"
+#include "vims_estimator/factors/marginalization_factor.h"
+#include "vims_estimator/factors/pose_prior_factor.h"
+#include "vims_estimator/factors/pressure_depth_factor.h"
+#include "vims_estimator/factors/reprojection_factor.h"
+#include "vims_estimator/factors/sonar_depth_factor.h"
+#include "vims_estimator/so3.h"
+#include "vims_estimator/state_blocks.h"
+#include "vio_window.h"
+
+namespace vims {
+
+using namespace vio_window;
+
+namespace {
+
+constexpr const char* kComponent = "vio";
+
+}  // namespace
+
+void VioEstimator::optimize(VioFrameResult* result) {
+  predictImageVelocities();
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  PoseManifold pose_manifold;
+  ceres::HuberLoss huber(options_.reprojection_loss_scale);
+  ceres::CauchyLoss cauchy(options_.sonar_loss_scale);
+
+  for (auto& frame : frames_) {
+    problem.AddParameterBlock(frame->pose, kPoseSize, &pose_manifold);
+    problem.AddParameterBlock(frame->sb, kSpeedBiasSize);
+  }
+  problem.AddParameterBlock(T_b_c_block_, kPoseSize, &pose_manifold);
+  problem.SetParameterBlockConstant(T_b_c_block_);
+  problem.AddParameterBlock(td_, 1);
+  // Mean image speed of the window's tracked observations: td is only estimated with motion.
+  double speed_sum = 0.0;
+  int speed_count = 0;
+  for (const auto& frame : frames_) {
+    for (const auto& [id, obs] : frame->obs) {
+      if (obs.fo.velocity.isZero()) continue;  // new feature: no velocity yet
+      speed_sum += focal_ * obs.fo.velocity.norm();
+      ++speed_count;
+    }
+  }
+  const bool td_observable = speed_count > 0 && speed_sum / speed_count > options_.td_min_image_speed_px_s;
+  if (options_.estimate_td && td_observable) {
+    problem.SetParameterLowerBound(td_, 0, -options_.max_abs_td_s);
+    problem.SetParameterUpperBound(td_, 0, options_.max_abs_td_s);
+  } else {
+    problem.SetParameterBlockConstant(td_);
+  }
+
+  for (std::size_t i = 1; i < frames_.size(); ++i) {
+    Frame* fi = frames_[i - 1].get();
+    Frame* fj = frames_[i].get();
+    fj->preintegration->repropagateIfNeeded(sbAccelBias(fi->sb), sbGyroBias(fi->sb),
+                                            options_.factors.imu_preintegration);
+    problem.AddResidualBlock(new ImuFactor(fj->preintegration, g_l_), nullptr, fi->pose, fi->sb, fj->pose, fj->sb);
+  }
+  for (const auto& prior : priors_) problem.AddResidualBlock(new MarginalizationFactor(prior), nullptr, prior->blocks);
+  Frame* first = frames_.front().get();
+  if (first->has_first_state_prior) {
+    problem.AddResidualBlock(new PosePriorFactor(first->prior_p, first->prior_q,
+                                                 PosePriorFactor::positionYawSqrtInformation(kGaugeSigmaPosition,
+                                                                                             kGaugeSigmaYaw)),
+                             nullptr, first->pose);
+    Eigen::Matrix<double, 9, 1> inv_sigma;
+    inv_sigma << Eigen::Vector3d::Constant(1.0 / options_.init_velocity_sigma),
+        Eigen::Vector3d::Constant(1.0 / options_.init_accel_bias_sigma),
+        Eigen::Vector3d::Constant(1.0 / options_.init_gyro_bias_sigma);
+    problem.AddResidualBlock(new SpeedBiasPriorFactor(first->prior_sb, inv_sigma), nullptr, first->sb);
+  }
+
+  const bool sloped = slopedSeabed();
+  if (sloped) addSeabedSlopeBlocks(&problem);
+  ceres::HuberLoss pressure_loss(options_.pressure.loss_scale);
+  result->pressure_factors = addPressureFactors(&problem, &pressure_loss, false);
+
+  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
+      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+  int n_features = 0, n_sonar = 0;
+  const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
+                          seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
+  std::vector<ResidualSpec> specs;
+  for (auto& [id, feature] : features_) {
+    specs.clear();
+    featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, true, &specs);
+    if (specs.empty()) continue;
+    problem.AddParameterBlock(feature.lambda, 1);
+    problem.SetParameterLowerBound(feature.lambda, 0, options_.min_feature_depth_m);
+    problem.SetParameterUpperBound(feature.lambda, 0, options_.max_feature_depth_m);
+    ++n_features;
+    for (const ResidualSpec& s : specs) {
+      if (s.sonar) ++n_sonar;
+      problem.AddResidualBlock(s.cost, s.sonar ? static_cast<ceres::LossFunction*>(&cauchy) : &huber, s.blocks);
+    }
+  }
+  if (n_features == 0 && options_.estimate_td && td_observable) problem.SetParameterBlockConstant(td_);  // no visual factor
+
+  ceres::Solver::Summary summary;
+  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_SCHUR), &problem, &summary);
+  result->features_in_window = n_features;
+  result->sonar_factors = n_sonar;
+}
+
+void VioEstimator::optimizeNewest(VioFrameResult* result) {
+  // Only the newest frame's pose and speed-bias are free; the previous frame's state, the
+  // anchors' poses, the depths, T_b_c and td are constants. Residuals: the IMU factor from the
+  // previous frame and the newest frame's reprojections of every landmark anchored elsewhere.
+  // Features anchored in the newest frame (new ones) constrain nothing yet.
+  predictImageVelocities();
+  const std::size_t n = frames_.size();
+  Frame* prev = frames_[n - 2].get();
+  Frame* newest = frames_[n - 1].get();
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  PoseManifold pose_manifold;
+  ceres::HuberLoss huber(options_.reprojection_loss_scale);
+
+  auto add_constant = [&](double* block, int size, ceres::Manifold* manifold) {
+    if (problem.HasParameterBlock(block)) return;
+    problem.AddParameterBlock(block, size, manifold);
+    problem.SetParameterBlockConstant(block);
+  };
+  problem.AddParameterBlock(newest->pose, kPoseSize, &pose_manifold);
+  problem.AddParameterBlock(newest->sb, kSpeedBiasSize);
+  add_constant(prev->pose, kPoseSize, &pose_manifold);
+  add_constant(prev->sb, kSpeedBiasSize, nullptr);
+  add_constant(T_b_c_block_, kPoseSize, &pose_manifold);
+  add_constant(td_, 1, nullptr);
+  newest->preintegration->repropagateIfNeeded(sbAccelBias(prev->sb), sbGyroBias(prev->sb),
+                                              options_.factors.imu_preintegration);
+  problem.AddResidualBlock(new ImuFactor(newest->preintegration, g_l_), nullptr, prev->pose, prev->sb, newest->pose,
+                           newest->sb);
+
+  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
+      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+  const Eigen::Isometry3d T_bc = extrinsicCamera();
+  const Eigen::Isometry3d T_l_bk = newest->T_l_b();
+  int n_features = 0;
+  for (auto& [id, feature] : features_) {
+    if (!feature.has_depth || !(feature.lambda[0] > 0.0) || feature.anchor == newest) continue;
+    auto it = newest->obs.find(id);
+    if (it == newest->obs.end()) continue;
+    const auto& anchor = feature.anchor->obs.at(id).fo;
+    double z = 0.0;
+    reprojectionResidual(anchor, it->second.fo, feature.anchor->T_l_b(), T_l_bk, T_bc, feature.lambda[0], td_[0],
+                         nullptr, &z);
+    if (!(z > kMinTargetDepth)) continue;
+    add_constant(feature.anchor->pose, kPoseSize, &pose_manifold);
+    add_constant(feature.lambda, 1, nullptr);
+    problem.AddResidualBlock(new ReprojectionFactor(anchor, it->second.fo, sqrt_info), &huber, feature.anchor->pose,
+                             newest->pose, T_b_c_block_, feature.lambda, td_);
+    ++n_features;
+  }
+  ceres::HuberLoss pressure_loss(options_.pressure.loss_scale);
+  result->pressure_factors = addPressureFactors(&problem, &pressure_loss, true);
+
+  ceres::Solver::Summary summary;
+  // 15 unknowns: nothing to eliminate.
+  ceres::Solve(windowSolverOptions(options_, ceres::DENSE_QR), &problem, &summary);
+  result->features_in_window = n_features;
+  result->sonar_factors = 0;
+}
+
+
+void VioEstimator::fillMissingSonarRanges() {
+  if (!options_.use_sonar) return;
+  for (auto& frame : frames_) {
+    if (!frame->sonar_range) frame->sonar_range = sonarRangeAt(frame->t_state);
+    if (!frame->depth) frame->depth = pressureDepthAt(frame->t_state);
+  }
+  // The newest frame's range may still be on its way; one frame later a missing range is a gap.
+  const std::size_t n = frames_.size();
+  if (n >= 2 && !frames_[n - 2]->sonar_range) {
+    const Frame& f = *frames_[n - 2];
+    std::ostringstream fallback;
+    fallback << std::fixed << std::setprecision(3);
+    if (seabed_fix_ && options_.factors.sonar_depth.carry_seabed_through_outages)
+      fallback << "features held at the seabed height the sonar last measured (z=" << seabed_fix_->height
+               << " m at t=" << seabed_fix_->t << ") within " << options_.factors.sonar_depth.carry_max_distance_m
+               << " m of it, visual-inertial beyond";
+    else
+      fallback << "visual-inertial only until it returns";
+    logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
+                           VIMS_STR("sonar gap: no filtered range within " << options_.sonar_max_interpolation_gap_s
+                                                                            << " s of the frame at t=" << std::fixed
+                                                                            << std::setprecision(3) << f.t_stamp << ": "
+                                                                            << fallback.str()));
+  }
+}
+
+void VioEstimator::updateSeabedFix() {
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {
+    const Frame& f = **it;
+    if (!f.sonar_range) continue;
+    if (seabed_fix_ && seabed_fix_->t > f.t_state) return;  // an older frame: keep the newer fix
+    const Eigen::Isometry3d T_l_b = f.T_l_b();
+    SeabedFix fix;
+    fix.height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range))).z();
+    fix.xy = T_l_b.translation().head<2>();
+    fix.t = f.t_state;
+    fix.slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
+    if (!std::isfinite(fix.height) || !fix.xy.allFinite() || !fix.slope.allFinite()) return;
+    seabed_fix_ = fix;
+    return;
+  }
+}
+
+
+double VioEstimator::slopeStepSigma(const Frame& a, const Frame& b) const {
+  const double distance = (posePosition(b.pose) - posePosition(a.pose)).head<2>().norm();
+  const SeabedModelOptions& o = options_.seabed;
+  return std::sqrt(o.slope_random_walk * o.slope_random_walk * distance + o.slope_step_std * o.slope_step_std);
+}
+
+void VioEstimator::addSeabedSlopeBlocks(ceres::Problem* problem) {
+  const SeabedModelOptions& o = options_.seabed;
+  for (auto& frame : frames_) {
+    problem->AddParameterBlock(frame->slope, 2);
+    for (int i = 0; i < 2; ++i) {
+      problem->SetParameterLowerBound(frame->slope, i, -o.max_slope);
+      problem->SetParameterUpperBound(frame->slope, i, o.max_slope);
+    }
+  }
+  for (std::size_t i = 1; i < frames_.size(); ++i) {
+    problem->AddResidualBlock(new SlopeRandomWalkFactor(slopeStepSigma(*frames_[i - 1], *frames_[i])), nullptr,
+                              frames_[i - 1]->slope, frames_[i]->slope);
+  }
+  Frame* first = frames_.front().get();
+  if (first->has_first_state_prior)
+    problem->AddResidualBlock(new SlopePriorFactor(Eigen::Vector2d::Zero(), o.slope_prior_std), nullptr, first->slope);
+}
+
+void VioEstimator::initializeSurface() {
+  if (surface_initialized_ || !usePressure()) return;
+  const Eigen::Vector3d& p_bp = sequence_.pressure->T_b_p.translation();
+  for (const auto& frame : frames_) {
+    if (!frame->depth) continue;
+    // The surface is depth above the port: the first depth fixes it, later ones refine it.
+    surface_z_[0] = (frame->T_l_b() * p_bp).z() + *frame->depth;
+    surface_initialized_ = true;
+    return;
+  }
+}
+
+int VioEstimator::addPressureFactors(ceres::Problem* problem, ceres::LossFunction* loss, bool newest_only) {
+  if (!usePressure()) return 0;
+  initializeSurface();
+  if (!surface_initialized_) return 0;
+  const Eigen::Vector3d& p_bp = sequence_.pressure->T_b_p.translation();
+  int n = 0;
+  for (std::size_t i = newest_only ? frames_.size() - 1 : 0; i < frames_.size(); ++i) {
+    Frame* frame = frames_[i].get();
+    if (!frame->depth) continue;
+    if (!problem->HasParameterBlock(surface_z_)) {
+      problem->AddParameterBlock(surface_z_, 1);
+      if (newest_only) problem->SetParameterBlockConstant(surface_z_);
+    }
+    problem->AddResidualBlock(new PressureDepthFactor(*frame->depth, p_bp, pressure_sigma_), loss, frame->pose,
+                              surface_z_);
+    ++n;
+  }
+  return n;
+}
+
+std::optional<double> vio_window::interpolateSeries(const std::deque<std::pair<double, double>>& series, double t,
+                                                    double gap) {
+  if (series.empty()) return std::nullopt;
+  auto it = std::lower_bound(series.begin(), series.end(), t,
+                             [](const std::pair<double, double>& s, double value) { return s.first < value; });
+  if (it != series.end() && it != series.begin()) {
+    const auto& a = *(it - 1);
+    const auto& b = *it;
+    if (t - a.first <= gap && b.first - t <= gap) {
+      const double w = (t - a.first) / (b.first - a.first);
+      return a.second + w * (b.second - a.second);
+    }
+  }
+  // No bracketing pair (the newest sample is older than t): hold the nearest sample if it is
+  // within half the gap.
+  double best_dt = std::numeric_limits<double>::infinity();
+  double best = 0.0;
+  if (it != series.end()) {
+    best_dt = it->first - t;
+    best = it->second;
+  }
+  if (it != series.begin() && t - (it - 1)->first < best_dt) {
+    best_dt = t - (it - 1)->first;
+    best = (it - 1)->second;
+  }
+  if (best_dt <= 0.5 * gap) return best;
+  return std::nullopt;
+}
+
+}  // namespace vims
