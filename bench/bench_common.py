@@ -43,11 +43,11 @@ def _summary(line):
 
 
 def eval_run(bin_dir, sequence, out):
-    """`vims_eval run --no-run --no-figures` on a finished vims_offline output folder: VIO and global
+    """`vims_eval run` on a finished vims_offline output folder: VIO and global
     SE(3) ATE [% of distance], rotation RMSE, tilt error (yaw-only alignment) [deg], loops. nan
     (or -1 loops) for what the folder lacks (e.g. --vio-only runs have no global trajectory)."""
-    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out, "--no-run",
-                           "--no-figures"], capture_output=True, text=True)
+    proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out],
+                          capture_output=True, text=True)
     nan = float("nan")
     figures = {"vio_pct": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "global_pct": nan, "global_rot_deg": nan,
                "global_tilt_deg": nan, "loops_correct": -1, "loops_wrong": -1}

@@ -161,6 +161,7 @@ void VioEstimator::feedPressure(const PressureSample& sample) {
   }
   if (!pressure_.empty() && r.t < pressure_.back().first) pressure_.clear();  // clock went backwards
   pressure_.emplace_back(r.t, r.depth);
+  processPendingFrames();  // a frame may have been waiting for this depth
 }
 
 void VioEstimator::feedFrame(const TrackedFrame& frame, const cv::Mat& image) {
@@ -241,6 +242,11 @@ void VioEstimator::processPendingFrames() {
     // The range at the frame's time may still be on its way (online it comes a node hop after
     // the image): wait for a range at or after the frame, or for the IMU to be sonar_wait_s past it.
     if (options_.use_sonar && options_.sonar_wait_s > 0.0 && (sonar_.empty() || sonar_.back().first < t_needed) &&
+        imu_.back().t < t_needed + options_.sonar_wait_s)
+      return;
+    // The same for the pressure depth (its own topic online): the same wait, so a frame gets the
+    // same interpolated depth live as offline.
+    if (usePressure() && options_.sonar_wait_s > 0.0 && (pressure_.empty() || pressure_.back().first < t_needed) &&
         imu_.back().t < t_needed + options_.sonar_wait_s)
       return;
     auto [frame, image] = std::move(pending_.front());
@@ -651,6 +657,7 @@ void VioEstimator::emitKeyframe(Frame& frame) {
   kf.t = frame.t_state;
   kf.session = session_;
   kf.T_odom_b = frame.T_l_b();
+  kf.port_depth = frame.depth;
   kf.image = frame.image;
   for (const auto& [id, obs] : frame.obs) {
     auto it = features_.find(id);
@@ -674,6 +681,7 @@ void VioEstimator::pruneImu() {
                              [](const ImuSample& s, double value) { return s.t < value; });
   if (it != imu_.begin() && it - imu_.begin() > 200) imu_.erase(imu_.begin(), it);
   while (!sonar_.empty() && sonar_.front().first < keep_from) sonar_.pop_front();
+  while (!pressure_.empty() && pressure_.front().first < keep_from) pressure_.pop_front();
 }
 
 }  // namespace vims

@@ -198,6 +198,17 @@ bool MultiScaleMap::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
   return true;
 }
 
+bool MultiScaleMap::addDepthMeasurement(PoseGraphNodeId node, double depth_m, const Eigen::Vector3d& p_b_port) {
+  checkNode(node, "addDepthMeasurement");
+  const PoseGraphNode& n = nodes_[node].pose;
+  if (!std::isfinite(depth_m) || !p_b_port.allFinite()) {
+    logger_->warnThrottled(kComponent, "depth_nan", n.t, 10.0, "non-finite pressure depth: no depth factor");
+    return false;
+  }
+  depth_measurements_.push_back(depthMeasurementAt(node, n, depth_m, p_b_port));
+  return true;
+}
+
 uint32_t MultiScaleMap::addMagneticSubmap(const MagneticSubmapDraft& draft) {
   checkNode(draft.tied_node, "addMagneticSubmap");
   MagneticSubmap m;
@@ -305,6 +316,12 @@ ComponentSnapshot MultiScaleMap::snapshotComponent(PoseGraphNodeId node) const {
     YawMeasurement local = m;
     local.node = static_cast<PoseGraphNodeId>(index[m.node]);
     cs.snapshot.yaw_measurements.push_back(local);
+  }
+  for (const DepthMeasurement& m : depth_measurements_) {
+    if (index[m.node] < 0) continue;
+    DepthMeasurement local = m;
+    local.node = static_cast<PoseGraphNodeId>(index[m.node]);
+    cs.snapshot.depth_measurements.push_back(local);
   }
   return cs;
 }

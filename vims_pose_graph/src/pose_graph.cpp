@@ -82,7 +82,7 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
                             "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
                             "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads",
                             "function_tolerance", "online_function_tolerance", "loop_solve_from_earliest_node",
-                            "window_keyframes", "loop_local_solve_max_sigmas"});
+                            "window_keyframes", "loop_local_solve_max_sigmas", "depth_sigma_m"});
   PoseGraphOptions o;
   auto positive = [&](const char* key, double fallback) {
     const double v = reader.get<double>(key, fallback);
@@ -129,6 +129,7 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   o.window_keyframes = reader.get<int>("window_keyframes", o.window_keyframes);
   requireInRange(reader, "window_keyframes", o.window_keyframes, 0, 100000000);
   o.loop_local_solve_max_sigmas = nonNegative("loop_local_solve_max_sigmas", o.loop_local_solve_max_sigmas);
+  o.depth_sigma_m = positive("depth_sigma_m", o.depth_sigma_m);
   return o;
 }
 
@@ -153,6 +154,7 @@ void PoseGraphOptions::validate() const {
   check(online_function_tolerance > 0.0 && online_function_tolerance < 1.0, "online_function_tolerance");
   check(window_keyframes >= 0, "window_keyframes");
   check(loop_local_solve_max_sigmas >= 0.0 && std::isfinite(loop_local_solve_max_sigmas), "loop_local_solve_max_sigmas");
+  check(depth_sigma_m > 0.0, "depth_sigma_m");
 }
 
 std::string PoseGraphOptions::toYaml() const {
@@ -177,7 +179,8 @@ std::string PoseGraphOptions::toYaml() const {
      << "online_function_tolerance: " << online_function_tolerance << "\n"
      << "loop_solve_from_earliest_node: " << (loop_solve_from_earliest_node ? "true" : "false") << "\n"
      << "window_keyframes: " << window_keyframes << "\n"
-     << "loop_local_solve_max_sigmas: " << loop_local_solve_max_sigmas << "\n";
+     << "loop_local_solve_max_sigmas: " << loop_local_solve_max_sigmas << "\n"
+     << "depth_sigma_m: " << depth_sigma_m << "\n";
   return os.str();
 }
 
@@ -352,6 +355,8 @@ PoseGraphSnapshot PoseGraph4Dof::snapshot() const {
     if (e.enabled) s.loop_edges.push_back(e);
   }
   s.yaw_measurements = yaw_measurements_;
+  s.depth_measurements = depth_measurements_;
+  s.surface_z = surface_z_;
   return s;
 }
 
@@ -364,6 +369,7 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     sol.p_w_b[i] = s.nodes[i].p_w_b;
     sol.yaw_w_b[i] = s.nodes[i].yaw_w_b;
   }
+  sol.surface_z = s.surface_z;
   PoseGraphReport& report = sol.report;
   report.num_nodes = n;
   report.num_sequential_edges = s.sequential_edges.size();
@@ -375,6 +381,8 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     if (e.match >= n || e.query >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
   for (const YawMeasurement& m : s.yaw_measurements)
     if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+  for (const DepthMeasurement& m : s.depth_measurements)
+    if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: depth factor refers to a node outside the snapshot");
   // Partial solve: nodes before first_free_node are held, and factors between held nodes only
   // are left out (they cannot change anything).
   const size_t first_free = std::min(s.first_free_node, n);
@@ -421,6 +429,20 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
       addNodeBlocks(m.node);
       problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad), mag_loss.get(),
                                &sol.yaw_w_b[m.node]);
+    }
+    // Depth factors tie the free nodes' heights to the water surface, whose height is a state
+    // (initialised from the first depth when the snapshot has none).
+    if (!s.depth_measurements.empty()) {
+      if (!sol.surface_z) {
+        const DepthMeasurement& m = s.depth_measurements.front();
+        sol.surface_z = s.nodes[m.node].p_w_b.z() + m.port_offset_z + m.depth_m;
+      }
+      for (const DepthMeasurement& m : s.depth_measurements) {
+        if (!isFree(m.node)) continue;
+        addNodeBlocks(m.node);
+        problem.AddResidualBlock(new PoseGraphDepthFactor(m.depth_m, m.port_offset_z, s.options.depth_sigma_m), nullptr,
+                                 sol.p_w_b[m.node].data(), &*sol.surface_z);
+      }
     }
     // Gauge: relative edges fix nothing absolute. In a full solve node 0's position is held; its
     // yaw too unless geomagnetic factors make yaw observable (then holding it would fight the
@@ -516,7 +538,32 @@ void PoseGraph4Dof::applySolution(const PoseGraphSolution& solution) {
     nodes_[i].p_w_b = solution.p_w_b[i];
     nodes_[i].yaw_w_b = wrapAngle(solution.yaw_w_b[i]);
   }
+  if (solution.surface_z && std::isfinite(*solution.surface_z)) surface_z_ = solution.surface_z;
   correctNodes(m, d_yaw, t_corr);
+}
+
+DepthMeasurement depthMeasurementAt(PoseGraphNodeId node, const PoseGraphNode& n, double depth_m,
+                                    const Eigen::Vector3d& p_b_port) {
+  DepthMeasurement m;
+  m.node = node;
+  m.depth_m = depth_m;
+  const Eigen::Matrix3d R_rp = (Eigen::AngleAxisd(n.pitch, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(n.roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  m.port_offset_z = (R_rp * p_b_port).z();
+  return m;
+}
+
+bool PoseGraph4Dof::addDepthMeasurement(PoseGraphNodeId node, double depth_m, const Eigen::Vector3d& p_b_port) {
+  checkNode(node, "addDepthMeasurement");
+  const PoseGraphNode& n = nodes_[node];
+  if (!std::isfinite(depth_m) || !p_b_port.allFinite()) {
+    if (logger_) logger_->warnThrottled(kComponent, "depth_nan", n.t, 10.0, "non-finite pressure depth: no depth factor");
+    return false;
+  }
+  const DepthMeasurement m = depthMeasurementAt(node, n, depth_m, p_b_port);
+  if (!surface_z_) surface_z_ = n.p_w_b.z() + m.port_offset_z + depth_m;
+  depth_measurements_.push_back(m);
+  return true;
 }
 
 PoseGraphReport PoseGraph4Dof::optimise() {

@@ -126,4 +126,17 @@ bool GeomagneticYawFactor::Evaluate(double const* const* parameters, double* res
   return true;
 }
 
+bool PoseGraphDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  residuals[0] = inv_sigma_ * (parameters[0][2] + offset_ - parameters[1][0]);
+  if (jacobians) {
+    if (jacobians[0]) {
+      jacobians[0][0] = 0.0;
+      jacobians[0][1] = 0.0;
+      jacobians[0][2] = inv_sigma_;
+    }
+    if (jacobians[1]) jacobians[1][0] = -inv_sigma_;
+  }
+  return std::isfinite(residuals[0]);
+}
+
 }  // namespace vims

@@ -514,6 +514,7 @@ void PoseGraphManager::handleKeyframe(const KeyframeData& kf, VisualSubmap subma
       map_.addSequentialEdge(previous, id);
     }
   }
+  if (kf.port_depth && sequence_.pressure) map_.addDepthMeasurement(id, *kf.port_depth, sequence_.pressure->T_b_p.translation());
   run_nodes_.push_back(id);
   latest_keyframe_t_ = kf.t;
   ++stats_.keyframes;

@@ -195,6 +195,38 @@ TEST(PoseGraph4Dof, DisabledAndRemovedLoopEdgesAreIgnored) {
   EXPECT_NE(graph.addLoopEdge(0, 5, trueRelative(s, 0, 5)), id);
 }
 
+TEST(PoseGraph4Dof, PressureDepthRemovesHeightDrift) {
+  // The VIO heights drift by 1 cm per step (0.8 m over the square); the true depths of a port
+  // 0.3 m behind and 0.1 m above the body pull every node back to the true height.
+  Scenario s = makeScenario(squareHeadings(0.0), 0.0, 1.0);
+  for (size_t k = 0; k < s.T_odom_b.size(); ++k) s.T_odom_b[k].translation().z() += 0.01 * k;
+  const Eigen::Vector3d p_b_port(-0.3, 0.0, 0.1);
+  const double surface_z = 12.0;
+  PoseGraph4Dof graph = buildGraph(s);
+  for (size_t k = 0; k < s.T_w_b_true.size(); ++k) {
+    const double port_z = (s.T_w_b_true[k] * p_b_port).z();
+    ASSERT_TRUE(graph.addDepthMeasurement(static_cast<PoseGraphNodeId>(k), surface_z - port_z, p_b_port));
+  }
+  EXPECT_FALSE(graph.addDepthMeasurement(3, std::nan(""), p_b_port));
+  EXPECT_EQ(graph.numDepthMeasurements(), s.T_w_b_true.size());
+  auto maxHeightError = [&] {
+    double e = 0.0;
+    for (size_t k = 0; k < s.T_w_b_true.size(); ++k)
+      e = std::max(e, std::abs(graph.node(static_cast<PoseGraphNodeId>(k)).p_w_b.z() - s.T_w_b_true[k].translation().z()));
+    return e;
+  };
+  const double before = maxHeightError();
+  ASSERT_TRUE(graph.optimise().solved);
+  const double after = maxHeightError();
+  std::cout << "[ INFO     ] max height error " << before << " m -> " << after << " m" << std::endl;
+  EXPECT_GT(before, 0.7);
+  EXPECT_LT(after, 0.01);
+  // The surface state converged to the truth (node 0 holds the gauge at its true height).
+  const PoseGraphSnapshot snap = graph.snapshot();
+  ASSERT_TRUE(snap.surface_z.has_value());
+  EXPECT_NEAR(*snap.surface_z, surface_z, 0.01);
+}
+
 TEST(PoseGraph4Dof, GeomagneticYawRemovesYawDrift) {
   // Two laps of the square with 0.05 deg/step (0.1 deg/m) of yaw drift, a VIO whose yaw
   // reference is 120 deg off, a tilted body, a rotated magnetometer and a 12 deg declination.

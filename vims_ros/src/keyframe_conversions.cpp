@@ -68,6 +68,10 @@ bool toKeyframeData(const vims::Keyframe& msg, KeyframeData* out, std::string* w
   keyframe.t = toSec(msg.header.stamp);
   keyframe.session = msg.session;
   keyframe.T_odom_b = T_odom_b;
+  if (msg.has_port_depth) {
+    if (!std::isfinite(msg.port_depth)) return fail(why, "keyframe port depth is not finite");
+    keyframe.port_depth = msg.port_depth;
+  }
   keyframe.features.reserve(msg.features.size());
   for (const vims::KeyframeFeature& f : msg.features) {
     KeyframeLandmark feature;
@@ -117,6 +121,9 @@ bool toKeyframeMsg(const KeyframeData& keyframe, const std::string& odom_frame_i
   msg.header.frame_id = odom_frame_id;
   msg.session = keyframe.session;
   msg.pose = toPoseMsg(keyframe.T_odom_b);
+  if (keyframe.port_depth && !std::isfinite(*keyframe.port_depth)) return fail(why, "keyframe port depth is not finite");
+  msg.has_port_depth = keyframe.port_depth.has_value();
+  msg.port_depth = keyframe.port_depth.value_or(0.0);
   msg.features.reserve(keyframe.features.size());
   for (const KeyframeLandmark& feature : keyframe.features) {
     vims::KeyframeFeature f;

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 namespace vims {
@@ -26,6 +27,8 @@ struct KeyframeData {
   std::uint32_t session = 0;
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  ///< body pose in the VIO frame
   std::vector<KeyframeLandmark> features;
+  /// Depth of the pressure port below the surface at t [m] (sequences with a pressure sensor).
+  std::optional<double> port_depth;
   cv::Mat image;  ///< the keyframe image (CV_8UC1), for ORB description in the pose graph
 };
 

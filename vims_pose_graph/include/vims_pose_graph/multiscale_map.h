@@ -116,6 +116,11 @@ class MultiScaleMap {
   /// component about its oldest keyframe to the measured heading (the VIO yaw is arbitrary; at
   /// 180 deg off the chordal residual has no gradient). A loaded map's frame is never rotated.
   bool addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3d& B_b_geomagnetic);
+  /// A pressure depth of the port (p_b_port in the body) below the surface at `node`: a depth
+  /// factor in the node's component solves (PoseGraph4Dof, DepthMeasurement). False for a
+  /// non-finite depth. Depth factors belong to this run: the map file does not keep them.
+  bool addDepthMeasurement(PoseGraphNodeId node, double depth_m, const Eigen::Vector3d& p_b_port);
+  size_t numDepthMeasurements() const { return depth_measurements_.size(); }
   uint32_t addMagneticSubmap(const MagneticSubmapDraft& draft);
   void setMagneticCoverage(PoseGraphNodeId node, bool covered);
 
@@ -207,6 +212,7 @@ class MultiScaleMap {
   std::vector<LoopEdge> loop_edges_;
   LoopEdgeId next_loop_id_ = 0;
   std::vector<YawMeasurement> yaw_measurements_;
+  std::vector<DepthMeasurement> depth_measurements_;
   std::vector<MagneticSubmap> magnetic_submaps_;
 };
 

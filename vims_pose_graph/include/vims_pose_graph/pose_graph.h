@@ -18,6 +18,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "vims_common/config_reader.h"
@@ -66,6 +67,9 @@ struct PoseGraphOptions {
   RobustLoss mag_loss = RobustLoss::kHuber;
   double mag_loss_scale = 2.0;
   double mag_min_horizontal_field_tesla = 5.0e-6;
+  /// [m] Depth factor of a keyframe with a pressure depth (sequences with a pressure sensor): the
+  /// sensor's ~1 cm plus the keyframe's interpolation and the VIO's attitude at the port lever.
+  double depth_sigma_m = 0.02;
 
   /// Solver.
   int max_iterations = 50;
@@ -133,6 +137,18 @@ struct LoopEdge {
   bool enabled = true;
 };
 
+/// The depth of the pressure port below the surface at a node: z_w + port_offset_z + depth = z_s.
+struct DepthMeasurement {
+  PoseGraphNodeId node = 0;
+  double depth_m = 0.0;
+  double port_offset_z = 0.0;  ///< (Ry(pitch) Rx(roll) p_b_port)_z: the port's height above the body
+};
+
+/// The depth measurement of `node` (pose `n`): the port's height above the body from the node's
+/// fixed roll and pitch (yaw does not change a height).
+DepthMeasurement depthMeasurementAt(PoseGraphNodeId node, const PoseGraphNode& n, double depth_m,
+                                    const Eigen::Vector3d& p_b_port);
+
 struct YawMeasurement {
   PoseGraphNodeId node = 0;
   Eigen::Vector2d u_l = Eigen::Vector2d::UnitX();  ///< levelled horizontal field direction
@@ -147,6 +163,10 @@ struct PoseGraphSnapshot {
   std::vector<SequentialEdge> sequential_edges;
   std::vector<LoopEdge> loop_edges;  ///< enabled ones only
   std::vector<YawMeasurement> yaw_measurements;
+  std::vector<DepthMeasurement> depth_measurements;
+  /// Height of the water surface in the world frame, the solve's starting value of that state;
+  /// unset: the first depth measurement's.
+  std::optional<double> surface_z;
 
   /// Partial solve: nodes [0, first_free_node) are held at their poses (they fix the gauge) and
   /// factors between held nodes are left out; 0 = full solve. Exact when the held part is
@@ -195,6 +215,7 @@ struct PoseGraphReport {
 struct PoseGraphSolution {
   std::vector<Eigen::Vector3d> p_w_b;  ///< per snapshot node
   std::vector<double> yaw_w_b;
+  std::optional<double> surface_z;
   PoseGraphReport report;
 };
 
@@ -230,6 +251,12 @@ class PoseGraph4Dof {
   /// mag_min_horizontal_field_tesla. The first accepted measurement rotates the whole graph
   /// about node 0 to its heading, so the solver starts near the right yaw basin.
   bool addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3d& B_m_geomagnetic);
+
+  /// A pressure depth (port below the surface, metres) at `node`, with the port's position in the
+  /// body frame. The first one sets the surface height. False (with a throttled warning) for a
+  /// non-finite depth.
+  bool addDepthMeasurement(PoseGraphNodeId node, double depth_m, const Eigen::Vector3d& p_b_port);
+  size_t numDepthMeasurements() const { return depth_measurements_.size(); }
 
   /// snapshot() + solve() + applySolution().
   PoseGraphReport optimise();
@@ -270,6 +297,8 @@ class PoseGraph4Dof {
   std::vector<SequentialEdge> sequential_edges_;
   std::vector<LoopEdge> loop_edges_;
   std::vector<YawMeasurement> yaw_measurements_;
+  std::vector<DepthMeasurement> depth_measurements_;
+  std::optional<double> surface_z_;
   LoopEdgeId next_loop_id_ = 0;
 };
 

@@ -103,4 +103,18 @@ class GeomagneticYawFactor final : public ceres::SizedCostFunction<2, 1> {
   double inv_sigma_;
 };
 
+/// Pressure depth of a node: r = (z + c + d - z_s) / sigma with the node's world position p (z its
+/// third component), the port offset c and the depth d constant, the surface height z_s a state.
+/// Blocks [p_w_b (3), z_s (1)]; dr/dp = (0, 0, 1/sigma), dr/dz_s = -1/sigma.
+class PoseGraphDepthFactor final : public ceres::SizedCostFunction<1, 3, 1> {
+ public:
+  PoseGraphDepthFactor(double depth_m, double port_offset_z, double sigma_m)
+      : offset_(port_offset_z + depth_m), inv_sigma_(1.0 / sigma_m) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  double offset_;
+  double inv_sigma_;
+};
+
 }  // namespace vims
