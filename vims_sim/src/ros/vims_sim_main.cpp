@@ -54,12 +54,12 @@ int main(int argc, char** argv) {
     });
     sink.close();
 
-    std::printf("vims_sim: messages: %lld images (%lld black), %lld imu, %lld sonar, %lld mag, %lld ground-truth poses; "
-                "%zu seabed tiles generated\n",
+    std::printf("vims_sim: messages: %lld images (%lld black), %lld imu, %lld sonar, %lld mag, %lld ground-truth poses",
                 static_cast<long long>(stats.image_messages), static_cast<long long>(stats.blackout_frames),
                 static_cast<long long>(stats.imu_messages), static_cast<long long>(stats.sonar_messages),
-                static_cast<long long>(stats.mag_messages), static_cast<long long>(stats.pose_messages),
-                stats.tiles_generated);
+                static_cast<long long>(stats.mag_messages), static_cast<long long>(stats.pose_messages));
+    if (setup.config.pressure) std::printf(", %lld pressure", static_cast<long long>(stats.pressure_messages));
+    std::printf("; %zu seabed tiles generated\n", stats.tiles_generated);
     std::printf("vims_sim: done: %.1f s of data in %.1f s wall (real-time factor %.1f), typical Shi-Tomasi corners per "
                 "frame %.0f (median of %d frames, min %d)\n",
                 options->duration, stats.wall_seconds, stats.realtime_factor, stats.median_corners, stats.corner_frames,
