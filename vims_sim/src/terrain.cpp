@@ -308,6 +308,7 @@ bool SeabedTerrain::intersectRay(const Eigen::Vector3d& origin, const Eigen::Vec
     return false;  // above every crest and not descending
   }
   if (t_lo > t_max) return false;
+  if (t_lo == 0.0 && g(0.0) <= 0.0) return false;  // the origin is among the crests, but under the seabed
   const double lateral2 = dx * dx + dy * dy;
   // g decreases strictly (one crossing at most) when dz + slope_bound * |d_xy| < 0. Where the
   // segment [t_lo, t_hi] passes no rock, the bound of the smooth terms holds there.
