@@ -171,6 +171,7 @@ void SeabedRenderer::traceTerrain(const Eigen::Isometry3d& T_w_c, Workspace& ws,
   const float top_level = static_cast<float>(texture_->levels() - 1);
   constexpr float kMinCosIncidence = 1e-3f;  // grazing hits: a finite footprint, (almost) no light
   double row_guess = -1.0;
+  TerrainCursor cursor;  // neighbouring pixels see the same few rocks
   for (int v = 0; v < height; ++v) {
     double t1 = -1.0, t2 = -1.0, t3 = -1.0;  // hits of the three pixels to the left (-1: none)
     for (int u = 0; u < width; ++u) {
@@ -184,7 +185,7 @@ void SeabedRenderer::traceTerrain(const Eigen::Isometry3d& T_w_c, Workspace& ws,
                            : t3 < 0.0 ? 2.0 * t1 - t2
                                       : 3.0 * (t1 - t2) + t3;
       TerrainHit crossing;
-      if (!terrain.intersectRay(origin, d, max_range / ray_norm_[i], &crossing, guess)) {
+      if (!terrain.intersectRay(origin, d, max_range / ray_norm_[i], &crossing, guess, &cursor)) {
         t1 = t2 = t3 = -1.0;
         continue;
       }

@@ -124,6 +124,24 @@ TEST(Terrain, EveryTermsGradientMatchesCentralDifferences) {
   }
 }
 
+TEST(Terrain, HeightIsTheDocumentedSumOfTheWaves) {
+  // The truth file lists the waves as amplitude * sin(2 pi (sin(dir) x + cos(dir) y) / wavelength + phase).
+  const SeabedTerrain terrain(only(3.0, 0.4, 0.08, 0, 0));
+  const double s = std::tan(3.0 * kDeg), az = 57.0 * kDeg;
+  double worst = 0.0;
+  for (const Eigen::Vector2d& p : randomPoints(5000, 500.0, 21)) {
+    double h = -s * (std::sin(az) * p.x() + std::cos(az) * p.y());
+    for (const auto* waves : {&terrain.reliefWaves(), &terrain.roughnessWaves()}) {
+      for (const TerrainWave& w : *waves) {
+        const double d = w.direction_deg * kDeg;
+        h += w.amplitude * std::sin(2.0 * M_PI * (std::sin(d) * p.x() + std::cos(d) * p.y()) / w.wavelength + w.phase);
+      }
+    }
+    worst = std::max(worst, std::abs(terrain.height(p.x(), p.y()) - h));
+  }
+  EXPECT_LT(worst, 1e-12);  // the same formula, other rounding (phases up to ~3000 rad)
+}
+
 TEST(Terrain, TermsHaveTheirSizes) {
   // Plane: 7 deg downhill towards azimuth 57 (clockwise from north).
   const SeabedTerrain plane(only(7.0, 0, 0, 0, 0));

@@ -24,6 +24,7 @@
 /// steps that provably cannot skip the first hit.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -70,6 +71,22 @@ struct TerrainHit {
   int evaluations = 0;                                ///< height evaluations spent (for profiling)
 };
 
+/// The rocks of recently visited grid cells, for runs of nearby rays (an image's pixels): saves
+/// the hash lookups, changes no result. One per thread.
+class TerrainCursor {
+ public:
+  TerrainCursor() = default;
+
+ private:
+  friend class SeabedTerrain;
+  struct Cell {
+    bool valid = false;
+    int64_t i = 0, j = 0;
+    std::optional<TerrainRock> rock;
+  };
+  Cell cells[4];  ///< direct-mapped by the cell indices' parities: neighbouring cells never collide
+};
+
 class SeabedTerrain {
  public:
   /// The flat seabed z = 0.
@@ -108,30 +125,28 @@ class SeabedTerrain {
   /// false when the ray meets nothing within t_max or the origin is under the seabed. The hit
   /// is exact to about 1e-7 m (its gradient to 3e-4); a ray passing within 1e-4 m above a crest
   /// counts as touching it.
+  /// `cursor` (optional) saves work over runs of neighbouring rays.
   bool intersectRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_max, TerrainHit* hit,
-                    double t_guess = -1.0) const;
+                    double t_guess = -1.0, TerrainCursor* cursor = nullptr) const;
 
  private:
-  /// The rock of the last grid cell looked up (evaluations along one ray stay in one cell).
-  struct RockCache {
-    bool valid = false;
-    int64_t i = 0, j = 0;
-    std::optional<TerrainRock> rock;
-  };
   /// h and its gradient; `with_small_scale` = false leaves out roughness and rocks (then
-  /// `cache` may be null).
-  double evaluate(double x, double y, bool with_small_scale, RockCache* cache, double* gx, double* gy) const;
-  double rockHeight(double x, double y, RockCache* cache, double* gx, double* gy) const;
+  /// `cursor` may be null).
+  double evaluate(double x, double y, bool with_small_scale, TerrainCursor* cursor, double* gx, double* gy) const;
+  double rockHeight(double x, double y, TerrainCursor* cursor, double* gx, double* gy) const;
+  const std::optional<TerrainRock>& cachedRock(int64_t i, int64_t j, TerrainCursor* cursor) const;
   /// Whether the horizontal segment passes over any rock.
-  bool segmentMeetsRock(double x0, double y0, double x1, double y1) const;
+  bool segmentMeetsRock(double x0, double y0, double x1, double y1, TerrainCursor* cursor) const;
 
   TerrainParams params_;
   bool flat_ = true;
   double plane_gx_ = 0.0, plane_gy_ = 0.0;  ///< gradient of the plane
   std::vector<TerrainWave> relief_, roughness_;
-  /// All waves, relief first: wave vector components and amplitude, for the evaluation.
-  std::vector<double> wave_kx_, wave_ky_, wave_phase_, wave_amplitude_;
-  int num_relief_waves_ = 0;
+  /// All waves, relief first, zero-padded to a fixed count (the evaluation loops then have a
+  /// fixed length and vectorise): wave vector components, phase and amplitude; the large-scale
+  /// amplitudes have the roughness waves' set to zero.
+  static constexpr int kMaxWaves = 8;
+  std::array<double, kMaxWaves> wave_kx_{}, wave_ky_{}, wave_phase_{}, wave_amplitude_{}, large_scale_amplitude_{};
   double rock_probability_ = 0.0;  ///< per cell
   uint64_t rock_seed_ = 0;
   double smooth_slope_bound_ = 0.0;  ///< |grad h| without the rocks
