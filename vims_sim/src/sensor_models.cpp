@@ -68,7 +68,9 @@ double SonarSimulator::trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Is
   const Eigen::Isometry3d T_w_s = T_w_b * T_b_s;
   const Eigen::Vector3d beam_w = T_w_s.linear().col(2);  // unit: the ray parameter is the range
   TerrainHit hit;
-  if (!terrain.intersectRay(T_w_s.translation(), beam_w, max_range, &hit)) return std::numeric_limits<double>::infinity();
+  if (!terrain.intersectRay(T_w_s.translation(), beam_w, max_range, &hit)) {
+    return std::numeric_limits<double>::infinity();
+  }
   return hit.t;
 }
 

@@ -161,7 +161,8 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
   const SeabedRenderer renderer(cfg.camera, texture, setup.optics, setup.terrain);
   std::optional<PressureSimulator> pressure;
   if (cfg.pressure && truth.pressure) {
-    pressure.emplace(setup.pressure, cfg.pressure->T_b_p, truth.pressure->water, deriveSeed(opt.seed, kStreamPressureNoise));
+    pressure.emplace(setup.pressure, cfg.pressure->T_b_p, truth.pressure->water,
+                     deriveSeed(opt.seed, kStreamPressureNoise));
   }
   const int64_t camera_period = period(cfg.camera.rate_hz);
   std::vector<FrameJob> jobs;

@@ -102,8 +102,9 @@ void checkClearances(const SimSetup& setup) {
     const double altitude = p.z() - terrain.height(p.x(), p.y());
     if (altitude < kMinAltitude) {
       char buf[200];
-      std::snprintf(buf, sizeof(buf), "the designed altitude falls to %.2f m above the seabed at t = %.1f s (minimum %.1f m)",
-                    altitude, t, kMinAltitude);
+      std::snprintf(buf, sizeof(buf),
+                    "the designed altitude falls to %.2f m above the seabed at t = %.1f s (minimum %.1f m)", altitude,
+                    t, kMinAltitude);
       throw std::invalid_argument(std::string(flag) + ": " + buf);
     }
     if (setup.config.pressure && setup.truth.pressure &&
@@ -236,7 +237,8 @@ SimSetup buildSimSetup(const SimOptions& options) {
     PressureTruth pressure;
     // Water depth above the mean seabed: about 10 m in the tank, 30 m at the field site.
     Rng water_rng(deriveSeed(options.worldSeed(), kStreamWater));
-    pressure.water.surface_z = options.scenario == Scenario::kTank ? water_rng.uniform(9.0, 11.0) : water_rng.uniform(27.0, 33.0);
+    pressure.water.surface_z =
+        options.scenario == Scenario::kTank ? water_rng.uniform(9.0, 11.0) : water_rng.uniform(27.0, 33.0);
     pressure.water.atmospheric_pa = kStandardAtmosphere;
     pressure.water.density = cfg.pressure->water_density;
     pressure.water.gravity = cfg.imu.gravity;

@@ -85,7 +85,8 @@ std::string terrainYaml(const TerrainParams& p) {
      << "  roughness_m: " << num(p.roughness_m) << "  # rms height\n"
      << "  rock_height_m: " << num(p.rock_height_m) << "  # tallest rock; rocks are 0.5-1 x this\n"
      << "  rock_density_per_m2: " << num(p.rock_density) << "\n"
-     << "  rock_cell_m: " << num(SeabedTerrain::kRockCell) << "  # at most one rock per cell, placed by a hash of the seed\n"
+     << "  rock_cell_m: " << num(SeabedTerrain::kRockCell)
+     << "  # at most one rock per cell, placed by a hash of the seed\n"
      << "  # waves derived from the seed: [amplitude_m, wavelength_m, direction_deg, phase_rad],\n"
      << "  # amplitude * sin(2 pi (sin(dir) x + cos(dir) y) / wavelength + phase), dir clockwise from north\n";
   waves("relief_waves", terrain.reliefWaves());
@@ -213,7 +214,8 @@ std::string SimTruth::toYaml() const {
        << "  atmospheric_pa: " << num(pressure->water.atmospheric_pa) << "  # true air pressure on the surface\n"
        << "  water_density: " << num(pressure->water.density) << "  # [kg/m^3]\n"
        << "  gravity: " << num(pressure->water.gravity) << "\n"
-       << "  atmospheric_error_pa: " << num(pressure->atmospheric_error_pa) << "  # NAME.yaml's atmospheric_pa minus the true one\n"
+       << "  atmospheric_error_pa: " << num(pressure->atmospheric_error_pa)
+       << "  # NAME.yaml's atmospheric_pa minus the true one\n"
        << "  spike_fraction: " << num(pressure->spike_fraction) << "  # samples carrying a spike\n"
        << "  spike_min_pa: " << num(pressure->spike_min_pa) << "  # spike magnitude U(min, max), random sign\n"
        << "  spike_max_pa: " << num(pressure->spike_max_pa) << "\n";

@@ -13,6 +13,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 enum : uint64_t { kStreamRelief = 0x7e11, kStreamRoughness = 0x7e12, kStreamRocks = 0x7e13 };
+constexpr double kInverseRockCell = 1.0 / SeabedTerrain::kRockCell;  // (a dome never reaches its cell's edge)
 /// Steepest slope of a dome H (1 - rho^2/R^2)^2 is 8 H / (3 sqrt(3) R); with R >= 2.5 H:
 constexpr double kRockSlopeBound = 8.0 / (3.0 * 1.7320508075688772 * 2.5);
 /// A ray closer than this above a crest counts as touching it [m] (the robust march's end).
@@ -73,6 +74,7 @@ TerrainWave makeWave(double amplitude, double wavelength, double direction_deg, 
   w.amplitude = amplitude;
   w.wavelength = wavelength;
   w.direction_deg = std::fmod(direction_deg, 360.0);
+  if (w.direction_deg < 0.0) w.direction_deg += 360.0;
   w.phase = phase;
   return w;
 }
@@ -178,10 +180,10 @@ std::optional<TerrainRock> SeabedTerrain::rockInCell(int64_t i, int64_t j) const
 }
 
 bool SeabedTerrain::segmentMeetsRock(double x0, double y0, double x1, double y1, TerrainCursor* cursor) const {
-  const int64_t i0 = static_cast<int64_t>(std::floor(std::min(x0, x1) / kRockCell));
-  const int64_t i1 = static_cast<int64_t>(std::floor(std::max(x0, x1) / kRockCell));
-  const int64_t j0 = static_cast<int64_t>(std::floor(std::min(y0, y1) / kRockCell));
-  const int64_t j1 = static_cast<int64_t>(std::floor(std::max(y0, y1) / kRockCell));
+  const auto i0 = static_cast<int64_t>(std::floor(std::min(x0, x1) * kInverseRockCell));
+  const auto i1 = static_cast<int64_t>(std::floor(std::max(x0, x1) * kInverseRockCell));
+  const auto j0 = static_cast<int64_t>(std::floor(std::min(y0, y1) * kInverseRockCell));
+  const auto j1 = static_cast<int64_t>(std::floor(std::max(y0, y1) * kInverseRockCell));
   if ((i1 - i0 + 1) * (j1 - j0 + 1) > 16) return true;  // a long segment: assume the worst
   const Eigen::Vector2d a(x0, y0), ab(x1 - x0, y1 - y0);
   const double length2 = ab.squaredNorm();
@@ -208,8 +210,8 @@ const std::optional<TerrainRock>& SeabedTerrain::cachedRock(int64_t i, int64_t j
 }
 
 double SeabedTerrain::rockHeight(double x, double y, TerrainCursor* cursor, double* gx, double* gy) const {
-  const auto& cached = cachedRock(static_cast<int64_t>(std::floor(x * (1.0 / kRockCell))),
-                                  static_cast<int64_t>(std::floor(y * (1.0 / kRockCell))), cursor);
+  const auto& cached = cachedRock(static_cast<int64_t>(std::floor(x * kInverseRockCell)),
+                                  static_cast<int64_t>(std::floor(y * kInverseRockCell)), cursor);
   if (!cached) return 0.0;
   const TerrainRock& rock = *cached;
   const double dx = x - rock.centre.x(), dy = y - rock.centre.y();
@@ -279,6 +281,13 @@ Eigen::Vector3d SeabedTerrain::normal(double x, double y) const {
 
 bool SeabedTerrain::intersectRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_max,
                                  TerrainHit* hit, double t_guess, TerrainCursor* cursor) const {
+  if (cursor) return firstCrossing(origin, direction, t_max, t_guess, cursor, hit);
+  TerrainCursor own_cursor;
+  return firstCrossing(origin, direction, t_max, t_guess, &own_cursor, hit);
+}
+
+bool SeabedTerrain::firstCrossing(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_max,
+                                  double t_guess, TerrainCursor* cursor, TerrainHit* hit) const {
   const double ox = origin.x(), oy = origin.y(), oz = origin.z();
   const double dx = direction.x(), dy = direction.y(), dz = direction.z();
   const double length2 = direction.squaredNorm();
@@ -288,8 +297,6 @@ bool SeabedTerrain::intersectRay(const Eigen::Vector3d& origin, const Eigen::Vec
   const double step_tolerance2 = kStepTolerance * kStepTolerance / length2;
   int evaluations = 0;
   double gx = 0.0, gy = 0.0;
-  TerrainCursor own_cursor;
-  if (!cursor) cursor = &own_cursor;
   // g(t): height of the ray point above the seabed; its slope g'(t) = dz - grad h . d_xy.
   auto g = [&](double t) {
     ++evaluations;
@@ -310,6 +317,18 @@ bool SeabedTerrain::intersectRay(const Eigen::Vector3d& origin, const Eigen::Vec
     hit->point.z() = 0.0;
     return true;
   }
+  const double lateral2 = dx * dx + dy * dy;
+  // g decreases strictly along the whole ray (one crossing at most) when dz + bound * |d_xy| < 0.
+  auto monotone = [&](double bound) { return dz < 0.0 && bound * bound * lateral2 < dz * dz; };
+
+  // The common case of a run of pixels: a guess within the step tolerance, on a ray from above
+  // every crest that can cross the surface only once. One Newton step that moves less than the
+  // tolerance is the crossing (no bracket needed). Otherwise the full search below.
+  if (t_guess > 0.0 && t_guess <= t_max && oz - planeHeight(ox, oy) > above_plane_ && monotone(slope_bound_)) {
+    const double value = g(t_guess);
+    const double step = -value / (dz - (gx * dx + gy * dy));
+    if (step * step < step_tolerance2 && t_guess + step > 0.0) return finish(t_guess + step);
+  }
 
   // The surface lies between the planes P + below and P + above: they bracket the first hit.
   const double height_above_plane = oz - planeHeight(ox, oy);
@@ -326,10 +345,7 @@ bool SeabedTerrain::intersectRay(const Eigen::Vector3d& origin, const Eigen::Vec
   }
   if (t_lo > t_max) return false;
   if (t_lo == 0.0 && g(0.0) <= 0.0) return false;  // the origin is among the crests, but under the seabed
-  const double lateral2 = dx * dx + dy * dy;
-  // g decreases strictly (one crossing at most) when dz + slope_bound * |d_xy| < 0. Where the
-  // segment [t_lo, t_hi] passes no rock, the bound of the smooth terms holds there.
-  auto monotone = [&](double bound) { return dz < 0.0 && bound * bound * lateral2 < dz * dz; };
+  // Where the segment [t_lo, t_hi] passes no rock, the bound of the smooth terms holds there.
   double slope_bound = slope_bound_;
   if (!monotone(slope_bound) && rock_probability_ > 0.0 &&
       !segmentMeetsRock(ox + t_lo * dx, oy + t_lo * dy, ox + t_hi * dx, oy + t_hi * dy, cursor)) {

@@ -302,7 +302,8 @@ TEST(SeabedRenderer, TiltedPlaneGeometryIsTheAnalyticIntersection) {
   // z = -tan(slope) u . (x, y): the plane n . p = 0 with n = (tan(slope) u, 1).
   const double s = std::tan(12.0 * M_PI / 180.0), az = 200.0 * M_PI / 180.0;
   const Eigen::Vector3d n_tilted = Eigen::Vector3d(s * std::sin(az), s * std::cos(az), 1.0).normalized();
-  for (const auto& [renderer, normal] : {std::make_pair(&tilted, n_tilted), std::make_pair(&flat, Eigen::Vector3d(0, 0, 1))}) {
+  const Eigen::Vector3d n_flat(0, 0, 1);
+  for (const auto& [renderer, normal] : {std::make_pair(&tilted, n_tilted), std::make_pair(&flat, n_flat)}) {
     const SeabedRenderer::ViewGeometry g = renderer->viewGeometry(T_w_c);
     double worst_range = 0.0, worst_cos = 0.0, worst_ground = 0.0;
     int hits = 0;
@@ -320,8 +321,9 @@ TEST(SeabedRenderer, TiltedPlaneGeometryIsTheAnalyticIntersection) {
                                                t * d.head<2>()).norm());
       }
     }
-    std::cout << (renderer == &tilted ? "tilted" : "flat") << " plane, " << hits << " pixels: worst relative range error "
-              << worst_range << ", cos(incidence) " << worst_cos << ", ground point " << worst_ground << " m\n";
+    std::cout << (renderer == &tilted ? "tilted" : "flat") << " plane, " << hits
+              << " pixels: worst relative range error " << worst_range << ", cos(incidence) " << worst_cos
+              << ", ground point " << worst_ground << " m\n";
     EXPECT_LT(worst_range, 4e-7);   // measured 1.9e-7 (float storage)
     EXPECT_LT(worst_cos, 5e-7);     // measured 2.4e-7
     EXPECT_LT(worst_ground, 1.1e-6);  // measured 5.3e-7

@@ -1,6 +1,6 @@
 // End to end: generate short sequences through the rosbag sink, read them back with
-// rosbag::View and check them against the sensor contract and the ground truth; over terrain
-// with the pressure sensor; and the default flat sequence against the bytes it always had.
+// rosbag::View and check them against the sensor contract and the ground truth; and the default
+// flat sequence against the bytes it always had (terrain and pressure: test_sim_bag_terrain.cpp).
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/PoseStamped.h>
@@ -8,7 +8,6 @@
 #include <ros/time.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
-#include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
@@ -26,6 +25,7 @@
 #include <sstream>
 
 #include "bag_sink.h"
+#include "sim_bag_test_support.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
@@ -34,61 +34,10 @@
 #include "vims_sim/sim_truth.h"
 
 using namespace vims::sim;
+using namespace vims::sim::bag_test;
 namespace fs = std::filesystem;
 
 namespace {
-
-const fs::path& tempRoot() {
-  static const fs::path root = [] {
-    const fs::path p = fs::temp_directory_path() / ("vims_sim_bag_test_" + std::to_string(::getpid()));
-    fs::create_directories(p);
-    return p;
-  }();
-  return root;
-}
-
-SimOptions baseOptions(const std::string& name, double duration, uint64_t seed) {
-  SimOptions o;
-  o.scenario = Scenario::kTank;
-  o.duration = duration;
-  o.seed = seed;
-  o.out_dir = (tempRoot() / name).string();
-  return o;
-}
-
-GenerationStats generate(const SimOptions& options) {
-  ros::Time::init();
-  const SimSetup setup = buildSimSetup(options);
-  const auto paths = vims::SequencePaths::forWriting(options.out_dir, options.sequenceName());
-  fs::create_directories(options.out_dir);
-  BagSink sink(paths.bag, options.lz4, setup.config, setup.sonar, setup.imu);
-  const GenerationStats stats = generateSequence(setup, sink);
-  sink.close();
-  return stats;
-}
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-/// Every message of a bag, serialised, per topic (for bit-exact comparisons).
-std::map<std::string, std::vector<std::vector<uint8_t>>> serialisedMessages(const std::string& bag_path) {
-  rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
-  rosbag::View view(bag);
-  std::map<std::string, std::vector<std::vector<uint8_t>>> out;
-  for (const rosbag::MessageInstance& m : view) {
-    std::vector<uint8_t> buffer(m.size());
-    ros::serialization::OStream stream(buffer.data(), static_cast<uint32_t>(buffer.size()));
-    m.write(stream);
-    out[m.getTopic()].push_back(std::move(buffer));
-  }
-  return out;
-}
-
-double toSeconds(const ros::Time& t) { return t.toSec(); }
 
 /// The sequence every check below reads: 20 s with a camera delay and one span of each kind.
 class GeneratedSequence : public ::testing::Test {
@@ -427,23 +376,6 @@ TEST(SimulatorDeterminism, SameSeedSameBytesWhateverTheThreadCount) {
   fs::remove_all(tempRoot());
 }
 
-namespace {
-
-/// 64-bit FNV-1a of a file's bytes.
-uint64_t fileHash(const std::string& path) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (unsigned char c : readFile(path)) h = (h ^ c) * 0x100000001b3ULL;
-  return h;
-}
-
-Eigen::Isometry3d gtPose(const vims::StampedPose& pose) {
-  Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
-  T_w_b.linear() = pose.q.toRotationMatrix();
-  T_w_b.translation() = pose.p;
-  return T_w_b;
-}
-
-}  // namespace
 
 // The default (flat, no pressure) output is byte for byte what the simulator wrote before the
 // terrain and the pressure sensor existed (hashes of the files written by the simulator of
@@ -459,112 +391,4 @@ TEST(SimulatorDeterminism, DefaultFlatSequenceIsUnchanged) {
   EXPECT_EQ(fileHash(paths.gt), 0xccfe9632bf80b381ULL);
   EXPECT_EQ(fileHash(paths.truth), 0xe53c5829849fa59bULL);
   fs::remove_all(options.out_dir);
-}
-
-TEST(SimulatorDeterminism, TerrainAndPressureWhateverTheThreadCount) {
-  SimOptions a = baseOptions("det_terrain_a", 2.0, 5);
-  a.static_start = 1.0;
-  a.terrain.preset = "rough";
-  a.pressure.enabled = true;
-  a.render_threads = 1;
-  SimOptions b = a;
-  b.out_dir = (tempRoot() / "det_terrain_b").string();
-  b.name = "det_terrain_a";
-  b.render_threads = 3;
-  generate(a);
-  generate(b);
-  const auto pa = vims::SequencePaths::resolve(a.out_dir), pb = vims::SequencePaths::resolve(b.out_dir);
-  EXPECT_EQ(serialisedMessages(pa.bag), serialisedMessages(pb.bag));
-  EXPECT_EQ(readFile(pa.truth), readFile(pb.truth));
-  fs::remove_all(a.out_dir);
-  fs::remove_all(b.out_dir);
-}
-
-/// 20 s over the slope4 seabed with the pressure sensor (one pressure-off span).
-class TerrainSequence : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    options_ = baseOptions("terrain20", 20.0, 12);
-    options_.terrain.preset = "slope4";
-    options_.pressure.enabled = true;
-    options_.spans.pressure_off = {{12.0, 13.0}};
-    generate(options_);
-    paths_ = vims::SequencePaths::resolve(options_.out_dir);
-  }
-  static void TearDownTestSuite() { fs::remove_all(tempRoot()); }
-
-  static SimOptions options_;
-  static vims::SequencePaths paths_;
-};
-SimOptions TerrainSequence::options_;
-vims::SequencePaths TerrainSequence::paths_;
-
-TEST_F(TerrainSequence, PressureMessagesMatchTheDepthOfThePort) {
-  const auto gt = vims::readTumFile(paths_.gt);
-  const SimTruth truth = SimTruth::load(paths_.truth);
-  std::vector<std::string> unknown;
-  const vims::SequenceConfig config = vims::SequenceConfig::load(paths_.yaml, &unknown);
-  EXPECT_TRUE(unknown.empty());
-  ASSERT_TRUE(config.pressure.has_value());
-  ASSERT_TRUE(truth.pressure.has_value());
-  EXPECT_FALSE(truth.terrain.isFlat());
-  rosbag::Bag bag(paths_.bag, rosbag::bagmode::Read);
-  rosbag::View view(bag, rosbag::TopicQuery(config.topics.pressure));
-  std::vector<double> stamps;
-  double sum = 0.0, sum_sq = 0.0, depth_min = 1e9, depth_max = -1e9;
-  for (const rosbag::MessageInstance& m : view) {
-    EXPECT_EQ(m.getDataType(), "sensor_msgs/FluidPressure");
-    auto msg = m.instantiate<sensor_msgs::FluidPressure>();
-    ASSERT_TRUE(msg);
-    EXPECT_EQ(msg->header.frame_id, "pressure");
-    EXPECT_EQ(m.getTime(), msg->header.stamp);
-    EXPECT_EQ(msg->variance, config.pressure->noise_std_pa * config.pressure->noise_std_pa);
-    const double t = msg->header.stamp.toSec() - truth.start_time;
-    stamps.push_back(t);
-    // Pressure samples lie on the IMU grid (25 ms + k 100 ms), so the TUM pose is the true one.
-    const size_t i = static_cast<size_t>(std::llround(t * 200.0));
-    ASSERT_LT(i, gt.size());
-    const double z_port = (gtPose(gt[i]) * config.pressure->T_b_p.translation()).z();
-    const double expected = truth.pressure->water.pressureAt(z_port);
-    sum += msg->fluid_pressure - expected;
-    sum_sq += (msg->fluid_pressure - expected) * (msg->fluid_pressure - expected);
-    const double depth = config.pressure->depthOf(msg->fluid_pressure, config.imu.gravity);
-    depth_min = std::min(depth_min, depth);
-    depth_max = std::max(depth_max, depth);
-  }
-  const double n = static_cast<double>(stamps.size());
-  std::cout << "pressure: " << stamps.size() << " samples, residual mean " << sum / n << " Pa, std "
-            << std::sqrt(sum_sq / n) << " Pa, port depth " << depth_min << " .. " << depth_max << " m\n";
-  EXPECT_EQ(stamps.size(), 190u);  // 10 Hz for 20 s minus the 1 s span
-  EXPECT_NEAR(stamps.front(), 0.025, 1e-6);
-  EXPECT_NEAR(stamps[1] - stamps[0], 0.1, 1e-6);
-  EXPECT_EQ(std::count_if(stamps.begin(), stamps.end(), [](double t) { return t >= 12.0 && t < 13.0; }), 0);
-  EXPECT_NEAR(std::sqrt(sum_sq / n), config.pressure->noise_std_pa, 0.15 * config.pressure->noise_std_pa);
-  EXPECT_NEAR(sum / n, 0.0, 5.0 * config.pressure->noise_std_pa / std::sqrt(n));
-  EXPECT_GT(depth_min, 3.0);  // the tank's water is 9-11 m deep
-}
-
-TEST_F(TerrainSequence, SonarRangesMatchTheTerrain) {
-  const auto gt = vims::readTumFile(paths_.gt);
-  const SimTruth truth = SimTruth::load(paths_.truth);
-  const vims::SequenceConfig config = vims::SequenceConfig::load(paths_.yaml);
-  const SeabedTerrain terrain = terrainFromTruth(truth);
-  rosbag::Bag bag(paths_.bag, rosbag::bagmode::Read);
-  rosbag::View view(bag, rosbag::TopicQuery("/sonar/range"));
-  int finite = 0, within = 0, within_flat = 0;
-  for (const rosbag::MessageInstance& m : view) {
-    auto range = m.instantiate<sensor_msgs::Range>();
-    if (std::isinf(range->range)) continue;
-    const size_t i = static_cast<size_t>(std::llround((range->header.stamp.toSec() - truth.start_time) * 200.0));
-    const Eigen::Isometry3d T_w_b = gtPose(gt[i]);
-    const double expected = SonarSimulator::trueRange(T_w_b, config.sonar.T_b_s, terrain, config.sonar.max_range);
-    const double flat = SonarSimulator::trueRange(T_w_b, config.sonar.T_b_s);
-    ++finite;
-    if (std::abs(range->range - expected) < 4.0 * config.sonar.range_noise_std) ++within;
-    if (std::abs(range->range - flat) < 4.0 * config.sonar.range_noise_std) ++within_flat;
-  }
-  std::cout << "sonar over terrain: " << within << " of " << finite << " finite ranges within 4 sigma of the terrain ("
-            << within_flat << " of the plane z = 0)\n";
-  EXPECT_GE(within, 0.9 * finite);
-  EXPECT_LT(within_flat, 0.5 * finite);
 }

@@ -320,8 +320,8 @@ TEST(SimCommandLine, TerrainAndPressureErrorsNameTheFlag) {
   expectError({"--pressure", "--pressure-atmospheric-error-pa", "5e4"}, "--pressure-atmospheric-error-pa");
   // The set-up checks the designed trajectory: a depth hold that meets the sloping seabed, one
   // that leaves the water.
-  const std::string too_low = setupErrorOf(
-      {"--scenario", "field", "--duration", "300", "--seed", "1", "--out", "d", "--terrain", "slope4", "--depth-hold", "2"});
+  const std::string too_low = setupErrorOf({"--scenario", "field", "--duration", "300", "--seed", "1", "--out", "d",
+                                            "--terrain", "slope4", "--depth-hold", "2"});
   EXPECT_EQ(too_low.rfind("--depth-hold: the designed altitude falls to", 0), 0u) << too_low;
   const std::string above = setupErrorOf(withBase({"--pressure", "--depth-hold", "12"}));
   EXPECT_EQ(above.rfind("--depth-hold: the pressure port reaches the water surface", 0), 0u) << above;

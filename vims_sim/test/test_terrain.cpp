@@ -69,7 +69,9 @@ double worstGradientError(const SeabedTerrain& terrain, const std::vector<Eigen:
 std::vector<Eigen::Vector2d> randomPoints(int n, double half_size, uint64_t seed) {
   Rng rng(seed);
   std::vector<Eigen::Vector2d> points;
-  for (int i = 0; i < n; ++i) points.emplace_back(rng.uniform(-half_size, half_size), rng.uniform(-half_size, half_size));
+  for (int i = 0; i < n; ++i) {
+    points.emplace_back(rng.uniform(-half_size, half_size), rng.uniform(-half_size, half_size));
+  }
   return points;
 }
 
@@ -118,7 +120,8 @@ TEST(Terrain, EveryTermsGradientMatchesCentralDifferences) {
     ASSERT_GE(points.size(), 100u) << c.name;
     const double worst = worstGradientError(terrain, points, false);
     const double worst_large = worstGradientError(terrain, points, true);
-    std::cout << c.name << ": worst |gradient - central difference| " << worst << ", large scale " << worst_large << "\n";
+    std::cout << c.name << ": worst |gradient - central difference| " << worst << ", large scale " << worst_large
+              << "\n";
     EXPECT_LT(worst, 2e-9) << c.name;  // measured up to 9.2e-10 (h = 1e-5: truncation and rounding)
     EXPECT_LT(worst_large, 4e-10) << c.name;  // measured up to 2.0e-10
   }
@@ -157,7 +160,9 @@ TEST(Terrain, TermsHaveTheirSizes) {
   const SeabedTerrain relief(only(0, 0.5, 0, 0, 0));
   ASSERT_EQ(relief.reliefWaves().size(), 3u);
   double peak = 0.0;
-  for (const Eigen::Vector2d& p : randomPoints(40000, 200.0, 5)) peak = std::max(peak, std::abs(relief.height(p.x(), p.y())));
+  for (const Eigen::Vector2d& p : randomPoints(40000, 200.0, 5)) {
+    peak = std::max(peak, std::abs(relief.height(p.x(), p.y())));
+  }
   EXPECT_LE(peak, 0.5);
   EXPECT_GT(peak, 0.4);
   EXPECT_EQ(relief.reliefWaves()[0].wavelength, 25.0);
@@ -242,7 +247,8 @@ TEST(Terrain, RayHitsAreOnTheSurfaceAndTheFirstCrossing) {
     ASSERT_TRUE(terrain.intersectRay(origin, direction, 60.0, &hit)) << k;
     ++hits;
     Eigen::Vector2d gradient;
-    worst_on_surface = std::max(worst_on_surface, std::abs(hit.point.z() - terrain.height(hit.point.x(), hit.point.y(), &gradient)));
+    const double h = terrain.height(hit.point.x(), hit.point.y(), &gradient);
+    worst_on_surface = std::max(worst_on_surface, std::abs(hit.point.z() - h));
     EXPECT_LT((gradient - hit.gradient).norm(), 1e-3);
     const double step = 0.001 / direction.norm();  // 1 mm
     for (double t = 0.0; t < hit.t - 2.0 * step; t += step) {
@@ -260,7 +266,8 @@ TEST(Terrain, RayHitsAreOnTheSurfaceAndTheFirstCrossing) {
   EXPECT_GT(worst_before, -1e-6);
   // From under the seabed, upwards or out of range: no hit.
   TerrainHit hit;
-  EXPECT_FALSE(terrain.intersectRay(Eigen::Vector3d(0, 0, terrain.height(0, 0) - 0.05), Eigen::Vector3d(0, 0, -1), 50, &hit));
+  const Eigen::Vector3d down(0, 0, -1);
+  EXPECT_FALSE(terrain.intersectRay(Eigen::Vector3d(0, 0, terrain.height(0, 0) - 0.05), down, 50, &hit));
   EXPECT_FALSE(terrain.intersectRay(Eigen::Vector3d(0, 0, 3), Eigen::Vector3d(0.1, 0, 1), 50, &hit));
   EXPECT_FALSE(terrain.intersectRay(Eigen::Vector3d(0, 0, 3), Eigen::Vector3d(0, 0, -1), 1.5, &hit));
 }
@@ -291,8 +298,8 @@ TEST(Sonar, SlantRangeToASlopedPlaneAndToARock) {
   params.slope_azimuth_deg = 30.0;
   const SeabedTerrain terrain(params);
   Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()))
-                       .toRotationMatrix();
+  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) *
+                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY())).toRotationMatrix();
   T_b_s.translation() = Eigen::Vector3d(0.1, 0.08, -0.12);
   Rng rng(3);
   double worst = 0.0;
@@ -305,7 +312,8 @@ TEST(Sonar, SlantRangeToASlopedPlaneAndToARock) {
     const Eigen::Isometry3d T_w_s = T_w_b * T_b_s;
     const Eigen::Vector3d o = T_w_s.translation(), b = T_w_s.linear().col(2);
     const Eigen::Vector2d u(std::sin(azimuth), std::cos(azimuth));
-    const double expected = -(o.z() + std::tan(slope) * u.dot(o.head<2>())) / (b.z() + std::tan(slope) * u.dot(b.head<2>()));
+    const double expected =
+        -(o.z() + std::tan(slope) * u.dot(o.head<2>())) / (b.z() + std::tan(slope) * u.dot(b.head<2>()));
     if (expected <= 0.0) continue;  // the vehicle would be under the seabed
     worst = std::max(worst, std::abs(SonarSimulator::trueRange(T_w_b, T_b_s, terrain, 50.0) - expected));
   }

@@ -244,7 +244,8 @@ TEST(Trajectory, TankRevisitsPlacesCrossingAndInOppositeDirection) {
 
 namespace {
 
-TrajectoryParams terrainTrajectoryParams(Scenario scenario, double duration, uint64_t seed, const TerrainParams& terrain) {
+TrajectoryParams terrainTrajectoryParams(Scenario scenario, double duration, uint64_t seed,
+                                         const TerrainParams& terrain) {
   TrajectoryParams p;
   p.scenario = scenario;
   p.duration = duration;

@@ -135,6 +135,8 @@ class SeabedTerrain {
   double evaluate(double x, double y, bool with_small_scale, TerrainCursor* cursor, double* gx, double* gy) const;
   double rockHeight(double x, double y, TerrainCursor* cursor, double* gx, double* gy) const;
   const std::optional<TerrainRock>& cachedRock(int64_t i, int64_t j, TerrainCursor* cursor) const;
+  bool firstCrossing(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_max, double t_guess,
+                     TerrainCursor* cursor, TerrainHit* hit) const;
   /// Whether the horizontal segment passes over any rock.
   bool segmentMeetsRock(double x0, double y0, double x1, double y1, TerrainCursor* cursor) const;
 

@@ -40,6 +40,18 @@ int main(int argc, char** argv) {
     std::printf("vims_sim: scenario %s, %.1f s, seed %llu, world seed %llu -> %s\n", scenarioName(options->scenario).c_str(),
                 options->duration, static_cast<unsigned long long>(options->seed),
                 static_cast<unsigned long long>(options->worldSeed()), paths.bag.c_str());
+    if (!setup.terrain->isFlat()) {
+      const vims::sim::TerrainParams& t = setup.terrain->params();
+      std::printf("vims_sim: seabed %s: slope %.1f deg downhill towards %.0f deg, relief %.2f m over %.0f m, roughness "
+                  "%.3f m rms, rocks up to %.2f m at %.3f per m^2\n",
+                  options->terrain.preset.c_str(), t.slope_deg, t.slope_azimuth_deg, t.relief_m, t.relief_wavelength_m,
+                  t.roughness_m, t.rock_height_m, t.rock_density);
+    }
+    if (options->depth_hold_z) std::printf("vims_sim: depth hold at z = %.2f m\n", *options->depth_hold_z);
+    if (setup.config.pressure) {
+      std::printf("vims_sim: pressure sensor at %.0f Hz on %s\n", setup.config.pressure->rate_hz,
+                  setup.config.topics.pressure.c_str());
+    }
     std::fflush(stdout);
 
     BagSink sink(paths.bag, options->lz4, setup.config, setup.sonar, setup.imu);
