@@ -36,11 +36,28 @@ inline float mipLevel(float x) {
   return static_cast<float>(exponent) + (mantissa - 1.0f);
 }
 
+constexpr int kMaxLevels = 16;
+
 }  // namespace
 
+struct SeabedRenderer::SeenRegion {
+  float min_x = std::numeric_limits<float>::max(), max_x = -std::numeric_limits<float>::max();
+  float min_y = std::numeric_limits<float>::max(), max_y = -std::numeric_limits<float>::max();
+  uint8_t finer_level_used[kMaxLevels] = {0};
+
+  void add(float x, float y, float lambda) {
+    finer_level_used[static_cast<int>(lambda)] = 1;
+    min_x = std::min(min_x, x);
+    max_x = std::max(max_x, x);
+    min_y = std::min(min_y, y);
+    max_y = std::max(max_y, y);
+  }
+};
+
 SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared_ptr<const SeabedTexture> texture,
-                               UnderwaterOptics optics)
-    : calib_(calibration), texture_(std::move(texture)), optics_(optics) {
+                               UnderwaterOptics optics, std::shared_ptr<const SeabedTerrain> terrain)
+    : calib_(calibration), texture_(std::move(texture)), optics_(optics),
+      terrain_(terrain && !terrain->isFlat() ? std::move(terrain) : nullptr) {
   if (!texture_) throw std::invalid_argument("SeabedRenderer: no texture");
   if (calib_.width <= 1 || calib_.height <= 1) throw std::invalid_argument("SeabedRenderer: bad image size");
   const PinholeRadtanCamera camera(calib_);
@@ -88,39 +105,38 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
   }
 }
 
-void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws) const {
-  const int width = calib_.width, height = calib_.height;
-  const size_t n = static_cast<size_t>(width) * height;
-  const Eigen::Matrix3f R_w_c = T_w_c.linear().cast<float>();
-  const Eigen::Vector3d p_w_c = T_w_c.translation();
-  const float altitude = static_cast<float>(p_w_c.z());
-  const int levels = texture_->levels();
-  if (levels > 16) throw std::invalid_argument("SeabedRenderer: at most 16 mip levels");
-  const float inverse_texel0 = static_cast<float>(1.0 / texture_->texelSize(0));
+void SeabedRenderer::traceRays(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const {
+  const size_t n = static_cast<size_t>(calib_.width) * calib_.height;
+  if (texture_->levels() > kMaxLevels) throw std::invalid_argument("SeabedRenderer: at most 16 mip levels");
   ws.ground_x.resize(n);
   ws.ground_y.resize(n);
   ws.range.resize(n);
   ws.cos_incidence.resize(n);
   ws.level.resize(n);
   ws.hit.resize(n);
-  ws.maps.resize(levels);
-  ws.sampled.resize(levels);
+  if (terrain_) {
+    traceTerrain(T_w_c, ws, seen);
+  } else {
+    tracePlane(T_w_c, ws, seen);
+  }
+}
 
-  // 1. Ray-plane intersection with the seabed z = 0 (ground point relative to the camera), and
-  // the mip level from the pixel footprint there: the pixel's angle times the range, stretched
-  // by 1/cos(incidence) along the slant. Also which levels are used and the seen region.
+// Ray-plane intersection with the seabed z = 0 (ground point relative to the camera), and the
+// mip level from the pixel footprint there: the pixel's angle times the range, stretched by
+// 1/cos(incidence) along the slant. Also which levels are used and the seen region.
+void SeabedRenderer::tracePlane(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const {
+  const size_t n = static_cast<size_t>(calib_.width) * calib_.height;
+  const Eigen::Matrix3f R_w_c = T_w_c.linear().cast<float>();
+  const float altitude = static_cast<float>(T_w_c.translation().z());
+  const float inverse_texel0 = static_cast<float>(1.0 / texture_->texelSize(0));
   const float max_range = static_cast<float>(optics_.max_range);
-  const float top_level = static_cast<float>(levels - 1);
+  const float top_level = static_cast<float>(texture_->levels() - 1);
   float* ground_x = ws.ground_x.data();
   float* ground_y = ws.ground_y.data();
   float* range = ws.range.data();
   float* cos_incidence = ws.cos_incidence.data();
   float* level = ws.level.data();
   uint8_t* hit = ws.hit.data();
-  constexpr int kMaxLevels = 16;
-  uint8_t finer_level_used[kMaxLevels] = {0};
-  float seen_min_x = std::numeric_limits<float>::max(), seen_max_x = -std::numeric_limits<float>::max();
-  float seen_min_y = std::numeric_limits<float>::max(), seen_max_y = -std::numeric_limits<float>::max();
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f d = R_w_c * rays_c_[i];
     hit[i] = 0;
@@ -138,12 +154,98 @@ void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws
     const float footprint = r * pixel_angle_[i] / cos_inc;
     const float lambda = std::min(top_level, mipLevel(footprint * inverse_texel0));
     level[i] = lambda;
-    finer_level_used[static_cast<int>(lambda)] = 1;
-    seen_min_x = std::min(seen_min_x, x);
-    seen_max_x = std::max(seen_max_x, x);
-    seen_min_y = std::min(seen_min_y, y);
-    seen_max_y = std::max(seen_max_y, y);
+    seen->add(x, y, lambda);
   }
+}
+
+// Ray tracing of the terrain: per pixel the first crossing of the ray with h(x, y), started
+// from the row's previous hits (extrapolated), so most pixels take one height evaluation. The incidence is taken on
+// the true surface normal, for the footprint (mip level) and for the Lambertian shading.
+void SeabedRenderer::traceTerrain(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const {
+  const int width = calib_.width, height = calib_.height;
+  const SeabedTerrain& terrain = *terrain_;
+  const Eigen::Matrix3d R_w_c = T_w_c.linear();
+  const Eigen::Vector3d origin = T_w_c.translation();
+  const float inverse_texel0 = static_cast<float>(1.0 / texture_->texelSize(0));
+  const double max_range = optics_.max_range;
+  const float top_level = static_cast<float>(texture_->levels() - 1);
+  constexpr float kMinCosIncidence = 1e-3f;  // grazing hits: a finite footprint, (almost) no light
+  double row_guess = -1.0;
+  TerrainCursor cursor;  // neighbouring pixels see the same few rocks
+  for (int v = 0; v < height; ++v) {
+    double t1 = -1.0, t2 = -1.0, t3 = -1.0;  // hits of the three pixels to the left (-1: none)
+    for (int u = 0; u < width; ++u) {
+      const size_t i = static_cast<size_t>(v) * width + u;
+      ws.hit[i] = 0;
+      const Eigen::Vector3d d = R_w_c * rays_c_[i].cast<double>();
+      // Quadratic extrapolation along the row: within ~1e-5 m on smooth ground, so one Newton
+      // step usually ends the search.
+      const double guess = t1 < 0.0   ? (u == 0 ? row_guess : -1.0)
+                           : t2 < 0.0 ? t1
+                           : t3 < 0.0 ? 2.0 * t1 - t2
+                                      : 3.0 * (t1 - t2) + t3;
+      TerrainHit crossing;
+      if (!terrain.intersectRay(origin, d, max_range / ray_norm_[i], &crossing, guess, &cursor)) {
+        t1 = t2 = t3 = -1.0;
+        continue;
+      }
+      t3 = t2;
+      t2 = t1;
+      t1 = crossing.t;
+      if (u == 0) row_guess = crossing.t;
+      const double gx = crossing.gradient.x(), gy = crossing.gradient.y();
+      // cos(incidence) = -ray . n with n = (-gx, -gy, 1) / |.| (float: it only scales light and footprint)
+      const float cos_inc =
+          std::max(kMinCosIncidence, static_cast<float>(-(d.z() - gx * d.x() - gy * d.y())) /
+                                         (ray_norm_[i] * std::sqrt(static_cast<float>(1.0 + gx * gx + gy * gy))));
+      const float x = static_cast<float>(crossing.t * d.x()), y = static_cast<float>(crossing.t * d.y());
+      const float r = static_cast<float>(crossing.t * ray_norm_[i]);
+      ws.hit[i] = 1;
+      ws.ground_x[i] = x;
+      ws.ground_y[i] = y;
+      ws.range[i] = r;
+      ws.cos_incidence[i] = cos_inc;
+      const float footprint = r * pixel_angle_[i] / cos_inc;
+      const float lambda = std::min(top_level, mipLevel(footprint * inverse_texel0));
+      ws.level[i] = lambda;
+      seen->add(x, y, lambda);
+    }
+  }
+}
+
+SeabedRenderer::ViewGeometry SeabedRenderer::viewGeometry(const Eigen::Isometry3d& T_w_c) const {
+  Workspace ws;
+  SeenRegion seen;
+  traceRays(T_w_c, ws, &seen);
+  ViewGeometry g;
+  const int width = calib_.width, height = calib_.height;
+  g.hit = cv::Mat(height, width, CV_8UC1, ws.hit.data()).clone();
+  g.range = cv::Mat(height, width, CV_32FC1, ws.range.data()).clone();
+  g.cos_incidence = cv::Mat(height, width, CV_32FC1, ws.cos_incidence.data()).clone();
+  g.ground_x = cv::Mat(height, width, CV_32FC1, ws.ground_x.data()).clone();
+  g.ground_y = cv::Mat(height, width, CV_32FC1, ws.ground_y.data()).clone();
+  return g;
+}
+
+void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws) const {
+  const int width = calib_.width, height = calib_.height;
+  const size_t n = static_cast<size_t>(width) * height;
+  const Eigen::Vector3d p_w_c = T_w_c.translation();
+  const int levels = texture_->levels();
+  ws.maps.resize(levels);
+  ws.sampled.resize(levels);
+
+  // 1. Where every pixel's ray meets the seabed, its mip level, the levels used and the seen region.
+  SeenRegion seen;
+  traceRays(T_w_c, ws, &seen);
+  float* ground_x = ws.ground_x.data();
+  float* ground_y = ws.ground_y.data();
+  float* range = ws.range.data();
+  float* cos_incidence = ws.cos_incidence.data();
+  float* level = ws.level.data();
+  uint8_t* hit = ws.hit.data();
+  const uint8_t* finer_level_used = seen.finer_level_used;
+  const float seen_min_x = seen.min_x, seen_max_x = seen.max_x, seen_min_y = seen.min_y, seen_max_y = seen.max_y;
   // Level l is read by the pixels whose finer level is l or l - 1. Its patch covers the whole
   // seen region; only if that is unreasonably large (a far, grazing view) it is narrowed to the
   // pixels that actually read the level.

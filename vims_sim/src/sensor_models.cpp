@@ -51,8 +51,9 @@ ImuMeasurement ImuSimulator::measure(const TrajectoryState& state) {
   return m;
 }
 
-SonarSimulator::SonarSimulator(const SonarParams& params, const Eigen::Isometry3d& T_b_s, uint64_t seed)
-    : params_(params), T_b_s_(T_b_s), rng_(seed) {}
+SonarSimulator::SonarSimulator(const SonarParams& params, const Eigen::Isometry3d& T_b_s, uint64_t seed,
+                               std::shared_ptr<const SeabedTerrain> terrain)
+    : params_(params), T_b_s_(T_b_s), rng_(seed), terrain_(terrain && !terrain->isFlat() ? terrain : nullptr) {}
 
 double SonarSimulator::trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s) {
   const Eigen::Isometry3d T_w_s = T_w_b * T_b_s;
@@ -60,6 +61,17 @@ double SonarSimulator::trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Is
   const double height = T_w_s.translation().z();
   if (beam_w.z() > -1e-9 || height <= 0.0) return std::numeric_limits<double>::infinity();
   return -height / beam_w.z();
+}
+
+double SonarSimulator::trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s,
+                                 const SeabedTerrain& terrain, double max_range) {
+  const Eigen::Isometry3d T_w_s = T_w_b * T_b_s;
+  const Eigen::Vector3d beam_w = T_w_s.linear().col(2);  // unit: the ray parameter is the range
+  TerrainHit hit;
+  if (!terrain.intersectRay(T_w_s.translation(), beam_w, max_range, &hit)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return hit.t;
 }
 
 SonarReading SonarSimulator::measure(const Eigen::Isometry3d& T_w_b) {
@@ -70,7 +82,7 @@ SonarReading SonarSimulator::measure(const Eigen::Isometry3d& T_w_b) {
   const double noise = rng_.gaussian(params_.range_noise_std);
 
   SonarReading reading;
-  reading.true_range = trueRange(T_w_b, T_b_s_);
+  reading.true_range = terrain_ ? trueRange(T_w_b, T_b_s_, *terrain_, params_.max_range) : trueRange(T_w_b, T_b_s_);
   if (!std::isfinite(reading.true_range) || reading.true_range > params_.max_range) {
     reading.kind = SonarReading::Kind::kOutOfRange;
     reading.range = std::numeric_limits<double>::infinity();
@@ -84,6 +96,27 @@ SonarReading SonarSimulator::measure(const Eigen::Isometry3d& T_w_b) {
     reading.kind = SonarReading::Kind::kGood;
     reading.range = std::max(params_.min_range, reading.true_range + noise);
   }
+  return reading;
+}
+
+PressureSimulator::PressureSimulator(const PressureParams& params, const Eigen::Isometry3d& T_b_p,
+                                     const WaterColumn& water, uint64_t seed)
+    : params_(params), T_b_p_(T_b_p), water_(water), rng_(seed) {}
+
+double PressureSimulator::truePressure(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_p,
+                                       const WaterColumn& water) {
+  return water.pressureAt((T_w_b * T_b_p.translation()).z());
+}
+
+PressureReading PressureSimulator::measure(const Eigen::Isometry3d& T_w_b) {
+  // Always the same random numbers per sample, so the stream stays aligned.
+  const double noise = rng_.gaussian(params_.noise_std_pa);
+  const double u_spike = rng_.uniform();
+  const double spike = rng_.sign() * rng_.uniform(params_.spike_min_pa, params_.spike_max_pa);
+  PressureReading reading;
+  reading.true_pressure = truePressure(T_w_b, T_b_p_, water_);
+  reading.spike = u_spike < params_.spike_fraction;
+  reading.pressure = reading.true_pressure + noise + (reading.spike ? spike : 0.0);
   return reading;
 }
 

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -22,7 +23,13 @@ namespace vims {
 namespace sim {
 namespace {
 
-enum : uint64_t { kStreamImuNoise = 0x1a0, kStreamSonarNoise = 0x50a, kStreamMagNoise = 0x3a6, kStreamCameraNoise = 0xca3 };
+enum : uint64_t {
+  kStreamImuNoise = 0x1a0,
+  kStreamSonarNoise = 0x50a,
+  kStreamMagNoise = 0x3a6,
+  kStreamCameraNoise = 0xca3,
+  kStreamPressureNoise = 0x9e5,
+};
 
 constexpr int kCornerStride = 5;  // count corners on every 5th lit frame (cheap, still a robust median)
 
@@ -146,12 +153,17 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
   const auto period = [](double rate_hz) { return secondsToNanoseconds(1.0 / rate_hz); };
 
   ImuSimulator imu(setup.imu, truth.gyro_bias, truth.accel_bias, deriveSeed(opt.seed, kStreamImuNoise));
-  SonarSimulator sonar(setup.sonar, cfg.sonar.T_b_s, deriveSeed(opt.seed, kStreamSonarNoise));
+  SonarSimulator sonar(setup.sonar, cfg.sonar.T_b_s, deriveSeed(opt.seed, kStreamSonarNoise), setup.terrain);
   MagnetometerSimulator mag(setup.magnetometer, cfg.magnetometer.T_b_m, truth.geomagnetic, truth.coil,
                             deriveSeed(opt.seed, kStreamMagNoise));
 
   auto texture = std::make_shared<SeabedTexture>(opt.worldSeed(), setup.texture);
-  const SeabedRenderer renderer(cfg.camera, texture, setup.optics);
+  const SeabedRenderer renderer(cfg.camera, texture, setup.optics, setup.terrain);
+  std::optional<PressureSimulator> pressure;
+  if (cfg.pressure && truth.pressure) {
+    pressure.emplace(setup.pressure, cfg.pressure->T_b_p, truth.pressure->water,
+                     deriveSeed(opt.seed, kStreamPressureNoise));
+  }
   const int64_t camera_period = period(cfg.camera.rate_hz);
   std::vector<FrameJob> jobs;
   for (int64_t k = 0; k * camera_period < duration_ns; ++k) {
@@ -170,8 +182,8 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
                          threads);
 
   // The streams on their nanosecond grids; the next event is the one with the smallest stamp
-  // (ties: IMU, magnetometer, pose, sonar, camera).
-  enum StreamId { kImu = 0, kMag, kPose, kSonar, kCamera, kNumStreams };
+  // (ties: IMU, magnetometer, pose, sonar, pressure, camera).
+  enum StreamId { kImu = 0, kMag, kPose, kSonar, kPressure, kCamera, kNumStreams };
   struct Stream {
     int64_t period = 0;
     int64_t phase = 0;
@@ -182,6 +194,7 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
   streams[kMag] = {period(cfg.magnetometer.rate_hz), 0, 0};
   streams[kPose] = {period(50.0), 0, 0};
   streams[kSonar] = {period(cfg.sonar.rate_hz), period(cfg.sonar.rate_hz) / 2, 0};
+  if (pressure) streams[kPressure] = {period(cfg.pressure->rate_hz), period(cfg.pressure->rate_hz) / 4, 0};
   size_t next_frame = 0;
 
   GenerationStats stats;
@@ -196,6 +209,8 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
       if (s == kCamera) {
         if (next_frame >= jobs.size()) continue;
         stamp = jobs[next_frame].t_ns + delay_ns;
+      } else if (s == kPressure && !pressure) {
+        continue;
       } else {
         const int64_t t_ns = streams[s].phase + streams[s].next * streams[s].period;
         if (t_ns >= duration_ns) continue;
@@ -243,6 +258,12 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
         if (!anySpanContains(spans.sonar_off, t)) {
           sink.sonar(stamp_ns, reading.range);
           ++stats.sonar_messages;
+        }
+      } else if (best == kPressure) {
+        const PressureReading reading = pressure->measure(setup.trajectory.pose(t));
+        if (!anySpanContains(spans.pressure_off, t)) {
+          sink.pressure(stamp_ns, reading.pressure);
+          ++stats.pressure_messages;
         }
       }
     }

@@ -1,7 +1,9 @@
 #include "vims_sim/sim_options.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -49,7 +51,65 @@ TimeSpan parseSpan(const std::string& flag, const std::string& text) {
   return span;
 }
 
+void requireInRange(const std::string& flag, const std::optional<double>& value, double lo, double hi,
+                    const std::string& unit) {
+  if (value && !(*value >= lo && *value <= hi)) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "must be in [%g, %g]%s%s, got %g", lo, hi, unit.empty() ? "" : " ", unit.c_str(),
+                  *value);
+    throw argError(flag, buf);
+  }
+}
+
 }  // namespace
+
+const std::vector<std::string>& terrainPresetNames() {
+  static const std::vector<std::string> names = {"flat", "slope4", "rough", "hills"};
+  return names;
+}
+
+TerrainParams terrainPreset(const std::string& name) {
+  TerrainParams p;
+  if (name == "flat") return p;
+  if (name == "slope4") {
+    // A gently sloping sandy seabed: 4 deg, long swells, a little roughness.
+    p.slope_deg = 4.0;
+    p.relief_m = 0.25;
+    p.relief_wavelength_m = 30.0;
+    p.roughness_m = 0.02;
+  } else if (name == "rough") {
+    // Rugged ground: a 2 deg slope, swells, 10 cm of roughness and rocks of 0.15-0.3 m.
+    p.slope_deg = 2.0;
+    p.relief_m = 0.25;
+    p.relief_wavelength_m = 30.0;
+    p.roughness_m = 0.1;
+    p.rock_height_m = 0.3;
+    p.rock_density = 0.05;
+  } else if (name == "hills") {
+    // Rolling hills of +-1 m over 40 m with a few rocks.
+    p.slope_deg = 1.0;
+    p.relief_m = 1.0;
+    p.relief_wavelength_m = 40.0;
+    p.roughness_m = 0.03;
+    p.rock_height_m = 0.2;
+    p.rock_density = 0.01;
+  } else {
+    throw std::invalid_argument("unknown terrain preset '" + name + "'");
+  }
+  return p;
+}
+
+TerrainParams terrainFromOptions(const TerrainOptions& options) {
+  TerrainParams p = terrainPreset(options.preset);
+  p.slope_deg = options.slope_deg.value_or(p.slope_deg);
+  p.slope_azimuth_deg = options.slope_azimuth_deg.value_or(p.slope_azimuth_deg);
+  p.relief_m = options.relief_m.value_or(p.relief_m);
+  p.relief_wavelength_m = options.relief_wavelength_m.value_or(p.relief_wavelength_m);
+  p.roughness_m = options.roughness_m.value_or(p.roughness_m);
+  p.rock_height_m = options.rock_height_m.value_or(p.rock_height_m);
+  p.rock_density = options.rock_density.value_or(p.rock_density);
+  return p;
+}
 
 std::string SimOptions::sequenceName() const {
   if (!name.empty()) return name;
@@ -73,16 +133,50 @@ void SimOptions::validate() const {
     throw argError("--start-time", "must be a positive bag-clock time that keeps all stamps below 4e9 s");
   }
   if (render_threads < 0 || render_threads > 64) throw argError("--threads", "must be in [0, 64] (0 = automatic)");
+
+  const auto& presets = terrainPresetNames();
+  if (std::find(presets.begin(), presets.end(), terrain.preset) == presets.end()) {
+    throw argError("--terrain", "expected flat, slope4, rough or hills, got '" + terrain.preset + "'");
+  }
+  requireInRange("--terrain-slope-deg", terrain.slope_deg, 0.0, 15.0, "deg");
+  requireInRange("--terrain-slope-azimuth-deg", terrain.slope_azimuth_deg, 0.0, 360.0, "deg");
+  requireInRange("--terrain-relief-m", terrain.relief_m, 0.0, 2.0, "m");
+  requireInRange("--terrain-relief-wavelength-m", terrain.relief_wavelength_m, 5.0, 200.0, "m");
+  requireInRange("--terrain-roughness-m", terrain.roughness_m, 0.0, 0.2, "m");
+  requireInRange("--terrain-rock-height-m", terrain.rock_height_m, 0.0, 0.4, "m");
+  requireInRange("--terrain-rock-density", terrain.rock_density, 0.0, 0.1, "per m^2");
+  requireInRange("--depth-hold", depth_hold_z, 1.0, 100.0, "m");
+
+  requireInRange("--pressure-rate-hz", pressure.rate_hz, 1.0, 50.0, "Hz");
+  requireInRange("--pressure-atmospheric-error-pa", pressure.atmospheric_error_pa, -2.0e4, 2.0e4, "Pa");
+  requireInRange("--pressure-spikes", pressure.spike_fraction, 0.0, 0.5, "");
+  if (!pressure.enabled) {
+    const char* flag = pressure.rate_hz != 10.0               ? "--pressure-rate-hz"
+                       : pressure.atmospheric_error_pa != 0.0 ? "--pressure-atmospheric-error-pa"
+                       : pressure.spike_fraction != 0.0       ? "--pressure-spikes"
+                       : !spans.pressure_off.empty()          ? "--pressure-off"
+                                                              : nullptr;
+    if (flag) throw argError(flag, "needs --pressure (the pressure sensor is off)");
+  }
 }
 
 std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& args) {
   SimOptions options;
-  bool have_scenario = false, have_duration = false, have_seed = false, have_out = false;
+  bool have_scenario = false, have_duration = false, have_seed = false, have_out = false, altitude_hold = false;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& flag = args[i];
     if (flag == "--help" || flag == "-h") return std::nullopt;
     if (flag == "--lz4") {
       options.lz4 = true;
+      continue;
+    }
+    if (flag == "--pressure") {
+      options.pressure.enabled = true;
+      continue;
+    }
+    if (flag == "--altitude-hold") {
+      if (options.depth_hold_z) throw argError(flag, "conflicts with --depth-hold");
+      altitude_hold = true;
       continue;
     }
     if (flag.rfind("--", 0) != 0) throw argError(flag, "unexpected argument (options start with --; see --help)");
@@ -121,6 +215,33 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.spans.mag_off.push_back(parseSpan(flag, value));
     } else if (flag == "--imu-gap") {
       options.spans.imu_gap.push_back(parseSpan(flag, value));
+    } else if (flag == "--pressure-off") {
+      options.spans.pressure_off.push_back(parseSpan(flag, value));
+    } else if (flag == "--terrain") {
+      options.terrain.preset = value;
+    } else if (flag == "--terrain-slope-deg") {
+      options.terrain.slope_deg = parseDouble(flag, value);
+    } else if (flag == "--terrain-slope-azimuth-deg") {
+      options.terrain.slope_azimuth_deg = parseDouble(flag, value);
+    } else if (flag == "--terrain-relief-m") {
+      options.terrain.relief_m = parseDouble(flag, value);
+    } else if (flag == "--terrain-relief-wavelength-m") {
+      options.terrain.relief_wavelength_m = parseDouble(flag, value);
+    } else if (flag == "--terrain-roughness-m") {
+      options.terrain.roughness_m = parseDouble(flag, value);
+    } else if (flag == "--terrain-rock-height-m") {
+      options.terrain.rock_height_m = parseDouble(flag, value);
+    } else if (flag == "--terrain-rock-density") {
+      options.terrain.rock_density = parseDouble(flag, value);
+    } else if (flag == "--depth-hold") {
+      if (altitude_hold) throw argError(flag, "conflicts with --altitude-hold");
+      options.depth_hold_z = parseDouble(flag, value);
+    } else if (flag == "--pressure-rate-hz") {
+      options.pressure.rate_hz = parseDouble(flag, value);
+    } else if (flag == "--pressure-atmospheric-error-pa") {
+      options.pressure.atmospheric_error_pa = parseDouble(flag, value);
+    } else if (flag == "--pressure-spikes") {
+      options.pressure.spike_fraction = parseDouble(flag, value);
     } else if (flag == "--start-time") {
       options.start_time = parseDouble(flag, value);
     } else if (flag == "--threads") {
@@ -140,7 +261,8 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
 }
 
 std::string simUsage() {
-  return R"(vims_sim: simulated underwater sequences (camera, IMU, sonar altimeter, magnetometer, ground truth)
+  return R"(vims_sim: simulated underwater sequences (camera, IMU, sonar altimeter, magnetometer, pressure,
+ground truth) over a flat or shaped seabed
 
 Usage:
   vims_sim --scenario tank|field --duration SECONDS --seed N --out DIR [options]
@@ -161,10 +283,33 @@ Options:
   --sonar-off A:B          no sonar messages in [A, B) (repeatable)
   --mag-off A:B            no magnetometer messages in [A, B) (repeatable)
   --imu-gap A:B            no IMU messages in [A, B) (repeatable)
+  --pressure-off A:B       no pressure messages in [A, B) (repeatable; needs --pressure)
   --start-time T           bag-clock time of the sequence start (default 1700000000.0)
   --lz4                    write lz4-compressed bag chunks
   --threads N              render threads (default 0: one per hardware thread)
   --help                   this text
+
+Seabed (default: flat, z = 0; a preset, then any term overridden):
+  --terrain flat|slope4|rough|hills
+                           slope4: 4 deg + 0.25 m relief (30 m) + 2 cm roughness (sloping sand);
+                           rough: 2 deg + 0.25 m relief + 10 cm roughness + rocks 0.15-0.3 m (0.05 / m^2);
+                           hills: 1 deg + 1 m relief (40 m) + 3 cm roughness + rocks 0.1-0.2 m (0.01 / m^2)
+  --terrain-slope-deg DEG            plane slope, 0-15
+  --terrain-slope-azimuth-deg DEG    downhill direction, clockwise from north, 0-360 (default: seeded)
+  --terrain-relief-m M               rolling relief peak amplitude, 0-2
+  --terrain-relief-wavelength-m M    longest relief wavelength, 5-200
+  --terrain-roughness-m M            rms height of the 1-5 m roughness, 0-0.2
+  --terrain-rock-height-m M          tallest rock, 0-0.4 (rocks are 0.5-1 x this)
+  --terrain-rock-density N           rocks per m^2, 0-0.1
+  --altitude-hold          fly the altitude profile above the large-scale seabed (default)
+  --depth-hold Z           hold the body at world height Z [m] instead (the seabed's mean is z = 0;
+                           an error if the altitude falls below 1 m anywhere)
+
+Pressure sensor (default: none):
+  --pressure               a depth sensor on /pressure (sensor_msgs/FluidPressure)
+  --pressure-rate-hz HZ    1-50 (default 10)
+  --pressure-atmospheric-error-pa X  the YAML's atmospheric_pa is off by X from the truth (|X| <= 20000)
+  --pressure-spikes P      a fraction P (0-0.5) of the samples carries a spike of 1.5-2.5e4 Pa
 
 Spans are seconds from the sequence start. Output: DIR/NAME.bag, NAME.yaml, NAME_gt.tum,
 NAME_truth.yaml (see docs/sensor-contract.md and vims_sim/docs/simulator.md).

@@ -1,6 +1,10 @@
 #include "vims_sim/sim_setup.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "vims_sim/random.h"
 
@@ -11,7 +15,19 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 
 // Sub-stream identifiers of the seeds.
-enum : uint64_t { kStreamSite = 0x5173, kStreamRig = 0x0219, kStreamImuBias = 0x1b1a, kStreamCoilPhase = 0xc01f };
+enum : uint64_t {
+  kStreamSite = 0x5173,
+  kStreamRig = 0x0219,
+  kStreamImuBias = 0x1b1a,
+  kStreamCoilPhase = 0xc01f,
+  kStreamTerrain = 0x7e55,
+  kStreamTerrainShape = 0x7e56,
+  kStreamWater = 0x3a7e,
+  kStreamPressureRig = 0x9b0e,
+};
+
+constexpr double kMinAltitude = 1.0;  // [m] the designed trajectory never comes closer to the seabed
+constexpr double kStandardAtmosphere = 101325.0;  // [Pa]
 
 Eigen::Matrix3d smallRotation(Rng& rng, double max_angle) {
   const Eigen::Vector3d v(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
@@ -70,6 +86,48 @@ SiteModel makeSite(Scenario scenario, uint64_t world_seed) {
   return site;
 }
 
+namespace {
+
+/// The designed trajectory must keep the body 1 m above the seabed (rocks and roughness
+/// included) and, with a pressure sensor, the port under water. Checked every 0.1 s.
+void checkClearances(const SimSetup& setup) {
+  const SimOptions& options = setup.options;
+  const SeabedTerrain& terrain = *setup.terrain;
+  const char* flag = options.depth_hold_z ? "--depth-hold" : "--terrain";
+  const auto steps = static_cast<int64_t>(std::ceil(options.duration * 10.0));
+  for (int64_t k = 0; k <= steps; ++k) {
+    const double t = std::min(options.duration, 0.1 * static_cast<double>(k));
+    const Eigen::Isometry3d T_w_b = setup.trajectory.pose(t);
+    const Eigen::Vector3d p = T_w_b.translation();
+    const double altitude = p.z() - terrain.height(p.x(), p.y());
+    if (altitude < kMinAltitude) {
+      char buf[200];
+      std::snprintf(buf, sizeof(buf),
+                    "the designed altitude falls to %.2f m above the seabed at t = %.1f s (minimum %.1f m)", altitude,
+                    t, kMinAltitude);
+      throw std::invalid_argument(std::string(flag) + ": " + buf);
+    }
+    if (setup.config.pressure && setup.truth.pressure &&
+        (T_w_b * setup.config.pressure->T_b_p.translation()).z() > setup.truth.pressure->water.surface_z - 0.5) {
+      char buf[200];
+      std::snprintf(buf, sizeof(buf), "the pressure port reaches the water surface (z = %.2f m) at t = %.1f s",
+                    setup.truth.pressure->water.surface_z, t);
+      throw std::invalid_argument(std::string(options.depth_hold_z ? "--depth-hold" : "--pressure") + ": " + buf);
+    }
+  }
+}
+
+}  // namespace
+
+TerrainParams resolveTerrain(const TerrainOptions& options, uint64_t world_seed) {
+  TerrainParams p = terrainFromOptions(options);
+  Rng rng(deriveSeed(world_seed, kStreamTerrain));
+  const double seeded_azimuth = rng.uniform(0.0, 360.0);
+  if (!options.slope_azimuth_deg) p.slope_azimuth_deg = seeded_azimuth;
+  p.seed = deriveSeed(world_seed, kStreamTerrainShape);
+  return p;
+}
+
 SimSetup buildSimSetup(const SimOptions& options) {
   options.validate();
   SimSetup setup;
@@ -82,7 +140,10 @@ SimSetup buildSimSetup(const SimOptions& options) {
   trajectory_params.static_start = options.static_start;
   // The model must cover every true sample time, including images shifted by the delay.
   trajectory_params.margin = 5.0 + std::abs(options.camera_delay);
+  trajectory_params.terrain = resolveTerrain(options.terrain, options.worldSeed());
+  trajectory_params.depth_hold_z = options.depth_hold_z;
   setup.trajectory = Trajectory::design(trajectory_params);
+  setup.terrain = std::make_shared<const SeabedTerrain>(trajectory_params.terrain);
 
   setup.imu = ImuNoiseParams::mti630();
   setup.sonar = SonarParams();
@@ -128,8 +189,26 @@ SimSetup buildSimSetup(const SimOptions& options) {
   cfg.magnetometer.rate_hz = setup.magnetometer.rate_hz;
   cfg.magnetometer.noise_std = setup.magnetometer.noise_std;
 
+  // Pressure port: its own stream, so adding the sensor changes no other calibration.
+  if (options.pressure.enabled) {
+    Rng port_rng(deriveSeed(options.seed, kStreamPressureRig));
+    setup.pressure.rate_hz = options.pressure.rate_hz;
+    setup.pressure.spike_fraction = options.pressure.spike_fraction;
+    PressureCalibration pressure;
+    pressure.T_b_p = makeTransform(Eigen::Matrix3d::Identity(), jitter(port_rng, Eigen::Vector3d(-0.30, 0.0, 0.10),
+                                                                       Eigen::Vector3d(0.03, 0.03, 0.02)));
+    pressure.rate_hz = setup.pressure.rate_hz;
+    pressure.noise_std_pa = setup.pressure.noise_std_pa;
+    pressure.atmospheric_pa = kStandardAtmosphere + options.pressure.atmospheric_error_pa;
+    pressure.water_density = options.scenario == Scenario::kTank ? 1000.0 : 1025.0;  // fresh / sea water
+    cfg.pressure = pressure;
+  }
+
   // --- The site.
-  const SiteModel site = makeSite(options.scenario, options.worldSeed());
+  SiteModel site = makeSite(options.scenario, options.worldSeed());
+  if (!setup.terrain->isFlat()) {
+    site.coil.position_w.z() = setup.terrain->height(site.coil.position_w.x(), site.coil.position_w.y());
+  }
   cfg.magnetometer.coil_frequency_hz = site.coil.frequency;
   cfg.magnetometer.declination_deg = site.geomagnetic.declination_deg;
 
@@ -152,6 +231,24 @@ SimSetup buildSimSetup(const SimOptions& options) {
   for (int i = 0; i < 3; ++i) truth.gyro_bias[i] = bias_rng.gaussian(setup.imu.gyro_initial_bias_std);
   for (int i = 0; i < 3; ++i) truth.accel_bias[i] = bias_rng.gaussian(setup.imu.accel_initial_bias_std);
   truth.dropouts = options.spans;
+  truth.terrain = setup.terrain->params();
+  truth.depth_hold_z = options.depth_hold_z;
+  if (cfg.pressure) {
+    PressureTruth pressure;
+    // Water depth above the mean seabed: about 10 m in the tank, 30 m at the field site.
+    Rng water_rng(deriveSeed(options.worldSeed(), kStreamWater));
+    pressure.water.surface_z =
+        options.scenario == Scenario::kTank ? water_rng.uniform(9.0, 11.0) : water_rng.uniform(27.0, 33.0);
+    pressure.water.atmospheric_pa = kStandardAtmosphere;
+    pressure.water.density = cfg.pressure->water_density;
+    pressure.water.gravity = cfg.imu.gravity;
+    pressure.atmospheric_error_pa = options.pressure.atmospheric_error_pa;
+    pressure.spike_fraction = setup.pressure.spike_fraction;
+    pressure.spike_min_pa = setup.pressure.spike_min_pa;
+    pressure.spike_max_pa = setup.pressure.spike_max_pa;
+    truth.pressure = pressure;
+  }
+  if (!setup.terrain->isFlat() || options.depth_hold_z || cfg.pressure) checkClearances(setup);
   return setup;
 }
 

@@ -1,8 +1,10 @@
 #include "vims_sim/sim_truth.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -64,7 +66,103 @@ std::vector<TimeSpan> readSpans(const ConfigReader& reader, const std::string& k
   return out;
 }
 
+std::string terrainYaml(const TerrainParams& p) {
+  const SeabedTerrain terrain(p);
+  std::ostringstream os;
+  auto waves = [&](const char* key, const std::vector<TerrainWave>& list) {
+    os << "  " << key << ":" << (list.empty() ? " []" : "") << "\n";
+    for (const TerrainWave& w : list) {
+      os << "    - [" << num(w.amplitude) << ", " << num(w.wavelength) << ", " << num(w.direction_deg) << ", "
+         << num(w.phase) << "]\n";
+    }
+  };
+  os << "terrain:  # seabed height h(x, y) [m] in world ENU = plane + relief + roughness + rocks (terrainFromTruth)\n"
+     << "  seed: " << p.seed << "\n"
+     << "  slope_deg: " << num(p.slope_deg) << "\n"
+     << "  slope_azimuth_deg: " << num(p.slope_azimuth_deg) << "  # downhill direction, clockwise from north\n"
+     << "  relief_m: " << num(p.relief_m) << "  # peak amplitude of the rolling relief\n"
+     << "  relief_wavelength_m: " << num(p.relief_wavelength_m) << "\n"
+     << "  roughness_m: " << num(p.roughness_m) << "  # rms height\n"
+     << "  rock_height_m: " << num(p.rock_height_m) << "  # tallest rock; rocks are 0.5-1 x this\n"
+     << "  rock_density_per_m2: " << num(p.rock_density) << "\n"
+     << "  rock_cell_m: " << num(SeabedTerrain::kRockCell)
+     << "  # at most one rock per cell, placed by a hash of the seed\n"
+     << "  # waves derived from the seed: [amplitude_m, wavelength_m, direction_deg, phase_rad],\n"
+     << "  # amplitude * sin(2 pi (sin(dir) x + cos(dir) y) / wavelength + phase), dir clockwise from north\n";
+  waves("relief_waves", terrain.reliefWaves());
+  waves("roughness_waves", terrain.roughnessWaves());
+  return os.str();
+}
+
+TerrainParams readTerrain(const ConfigReader& root) {
+  const ConfigReader t = root.child("terrain");
+  t.rejectUnknownKeys({"seed", "slope_deg", "slope_azimuth_deg", "relief_m", "relief_wavelength_m", "roughness_m",
+                       "rock_height_m", "rock_density_per_m2", "rock_cell_m", "relief_waves", "roughness_waves"});
+  TerrainParams p;
+  p.seed = t.get<uint64_t>("seed");
+  p.slope_deg = t.get<double>("slope_deg");
+  p.slope_azimuth_deg = t.get<double>("slope_azimuth_deg");
+  p.relief_m = t.get<double>("relief_m");
+  p.relief_wavelength_m = t.get<double>("relief_wavelength_m");
+  p.roughness_m = t.get<double>("roughness_m");
+  p.rock_height_m = t.get<double>("rock_height_m");
+  p.rock_density = t.get<double>("rock_density_per_m2");
+  if (t.get<double>("rock_cell_m") != SeabedTerrain::kRockCell) {
+    throw t.error("rock_cell_m", "this build places rocks on a " + num(SeabedTerrain::kRockCell) + " m grid");
+  }
+  std::optional<SeabedTerrain> terrain;
+  try {
+    terrain.emplace(p);
+  } catch (const std::invalid_argument& e) {
+    throw t.error("seed", e.what());
+  }
+  // The listed waves must be the ones this build derives from the seed and the parameters.
+  auto checkWaves = [&](const std::string& key, const std::vector<TerrainWave>& expected) {
+    const YAML::Node node = t.node()[key];
+    if (!node || !node.IsSequence()) throw t.error(key, "expected a list of [amplitude, wavelength, direction, phase]");
+    bool same = node.size() == expected.size();
+    for (size_t i = 0; same && i < expected.size(); ++i) {
+      std::vector<double> v;
+      try {
+        v = node[i].as<std::vector<double>>();
+      } catch (const YAML::Exception&) {
+        throw t.error(key, "expected lists of 4 numbers");
+      }
+      const TerrainWave& w = expected[i];
+      const double want[4] = {w.amplitude, w.wavelength, w.direction_deg, w.phase};
+      same = v.size() == 4;
+      for (int k = 0; same && k < 4; ++k) same = std::abs(v[k] - want[k]) <= 1e-12 * (1.0 + std::abs(want[k]));
+    }
+    if (!same) throw t.error(key, "inconsistent with the seed and the terrain parameters");
+  };
+  checkWaves("relief_waves", terrain->reliefWaves());
+  checkWaves("roughness_waves", terrain->roughnessWaves());
+  return p;
+}
+
+PressureTruth readPressure(const ConfigReader& root) {
+  const ConfigReader p = root.child("pressure");
+  p.rejectUnknownKeys({"surface_z", "atmospheric_pa", "water_density", "gravity", "atmospheric_error_pa",
+                       "spike_fraction", "spike_min_pa", "spike_max_pa"});
+  PressureTruth truth;
+  truth.water.surface_z = p.get<double>("surface_z");
+  truth.water.atmospheric_pa = p.get<double>("atmospheric_pa");
+  requirePositive(p, "atmospheric_pa", truth.water.atmospheric_pa);
+  truth.water.density = p.get<double>("water_density");
+  requirePositive(p, "water_density", truth.water.density);
+  truth.water.gravity = p.get<double>("gravity");
+  requirePositive(p, "gravity", truth.water.gravity);
+  truth.atmospheric_error_pa = p.get<double>("atmospheric_error_pa");
+  truth.spike_fraction = p.get<double>("spike_fraction");
+  requireInRange(p, "spike_fraction", truth.spike_fraction, 0.0, 1.0);
+  truth.spike_min_pa = p.get<double>("spike_min_pa");
+  truth.spike_max_pa = p.get<double>("spike_max_pa");
+  return truth;
+}
+
 }  // namespace
+
+SeabedTerrain terrainFromTruth(const SimTruth& truth) { return SeabedTerrain(truth.terrain); }
 
 bool anySpanContains(const std::vector<TimeSpan>& spans, double t) {
   for (const auto& s : spans)
@@ -108,6 +206,21 @@ std::string SimTruth::toYaml() const {
      << "  sonar_off: " << spans(dropouts.sonar_off) << "\n"
      << "  mag_off: " << spans(dropouts.mag_off) << "\n"
      << "  imu_gap: " << spans(dropouts.imu_gap) << "\n";
+  if (pressure || !dropouts.pressure_off.empty()) os << "  pressure_off: " << spans(dropouts.pressure_off) << "\n";
+  if (!terrain.isFlat()) os << terrainYaml(terrain);
+  if (pressure) {
+    os << "pressure:  # absolute pressure at the port = atmospheric_pa + water_density * gravity * (surface_z - z)\n"
+       << "  surface_z: " << num(pressure->water.surface_z) << "  # [m] water surface height in world ENU\n"
+       << "  atmospheric_pa: " << num(pressure->water.atmospheric_pa) << "  # true air pressure on the surface\n"
+       << "  water_density: " << num(pressure->water.density) << "  # [kg/m^3]\n"
+       << "  gravity: " << num(pressure->water.gravity) << "\n"
+       << "  atmospheric_error_pa: " << num(pressure->atmospheric_error_pa)
+       << "  # NAME.yaml's atmospheric_pa minus the true one\n"
+       << "  spike_fraction: " << num(pressure->spike_fraction) << "  # samples carrying a spike\n"
+       << "  spike_min_pa: " << num(pressure->spike_min_pa) << "  # spike magnitude U(min, max), random sign\n"
+       << "  spike_max_pa: " << num(pressure->spike_max_pa) << "\n";
+  }
+  if (depth_hold_z) os << "depth_hold_z: " << num(*depth_hold_z) << "  # [m] the body held this world z (depth hold)\n";
   return os.str();
 }
 
@@ -122,7 +235,7 @@ SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
   root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
                           "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
-                          "dropouts"});
+                          "dropouts", "terrain", "pressure", "depth_hold_z"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -171,12 +284,17 @@ SimTruth SimTruth::load(const std::string& path) {
   t.accel_bias = readVec3(bias, "accel");
 
   const ConfigReader drops = root.child("dropouts");
-  drops.rejectUnknownKeys({"camera_blackout", "camera_off", "sonar_off", "mag_off", "imu_gap"});
+  drops.rejectUnknownKeys({"camera_blackout", "camera_off", "sonar_off", "mag_off", "imu_gap", "pressure_off"});
   t.dropouts.camera_blackout = readSpans(drops, "camera_blackout");
   t.dropouts.camera_off = readSpans(drops, "camera_off");
   t.dropouts.sonar_off = readSpans(drops, "sonar_off");
   t.dropouts.mag_off = readSpans(drops, "mag_off");
   t.dropouts.imu_gap = readSpans(drops, "imu_gap");
+  t.dropouts.pressure_off = readSpans(drops, "pressure_off");
+
+  if (root.has("terrain")) t.terrain = readTerrain(root);  // absent: the flat seabed of older files
+  if (root.has("pressure")) t.pressure = readPressure(root);
+  if (root.has("depth_hold_z")) t.depth_hold_z = root.get<double>("depth_hold_z");
   return t;
 }
 

@@ -210,8 +210,8 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
     return {(i + f) * kArcStep, speed[i] + f * (speed[i + 1] - speed[i])};
   };
 
-  // --- 3. Altitude above the flat seabed (z = 0): two slow undulations keep it in [2.1, 4.9] m
-  // with climb slopes below 0.3 (0.1 m/s at cruise speed).
+  // --- 3. Altitude above the seabed's large-scale shape (z = 0 when flat): two slow
+  // undulations keep it in [2.1, 4.9] m with climb slopes below 0.3 (0.1 m/s at cruise speed).
   const double alt_mean = 3.5;
   const double alt_amp1 = 1.1, alt_amp2 = 0.3;
   const double alt_wave1 = rng.uniform(35.0, 50.0), alt_wave2 = rng.uniform(14.0, 20.0);
@@ -239,6 +239,22 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
   const double pitch_phase = rng.uniform(0.0, 2.0 * M_PI), roll_phase = rng.uniform(0.0, 2.0 * M_PI);
   const double fade_in = 15.0;  // [s]
 
+  // Where the terrain is not flat, the designed height is the large-scale seabed plus the
+  // altitude profile (altitude hold) or a constant (depth hold), and the climb the hull pitches
+  // with is that height's slope along the path. The flat seabed keeps the plain profile.
+  const bool flat_altitude_hold = params.terrain.isFlat() && !params.depth_hold_z;
+  const SeabedTerrain terrain(params.terrain);
+  auto designedHeight = [&](double s, const PlanarPath::Point& pt, double* climb_slope) {
+    if (params.depth_hold_z) {
+      *climb_slope = 0.0;
+      return *params.depth_hold_z;
+    }
+    Eigen::Vector2d ground_gradient;
+    const double ground = terrain.largeScale(pt.position.x(), pt.position.y(), &ground_gradient);
+    *climb_slope = altitudeSlope(s) + ground_gradient.dot(Eigen::Vector2d(std::cos(pt.heading), std::sin(pt.heading)));
+    return ground + altitude(s);
+  };
+
   // --- 5. Control points of the two quintic splines.
   const double t0 = params.static_start - kKnotSpacing * std::ceil((params.static_start + params.margin) / kKnotSpacing);
   const int num_control =
@@ -248,10 +264,17 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
     const double tau = t0 + (j - kSplineDegree / 2) * kKnotSpacing;
     const ArcState arc = arcAt(tau);
     const PlanarPath::Point pt = path.at(arc.s);
-    position_control[j] = Eigen::Vector3d(pt.position.x(), pt.position.y(), altitude(arc.s));
+    double z, climb_slope;
+    if (flat_altitude_hold) {
+      z = altitude(arc.s);
+      climb_slope = altitudeSlope(arc.s);
+    } else {
+      z = designedHeight(arc.s, pt, &climb_slope);
+    }
+    position_control[j] = Eigen::Vector3d(pt.position.x(), pt.position.y(), z);
     const double fade = smoothstep01((tau - motion_start) / fade_in);
     const double yaw = pt.heading + fade * crab_amplitude * crab_noise.at(tau);
-    const double pitch = pitch_trim + fade * (-pitch_coupling * std::atan(altitudeSlope(arc.s)) +
+    const double pitch = pitch_trim + fade * (-pitch_coupling * std::atan(climb_slope) +
                                               pitch_sway * std::sin(2.0 * M_PI * tau / pitch_period + pitch_phase));
     const double roll = roll_trim + fade * (-bank_gain * arc.v * pt.curvature +
                                             roll_sway * std::sin(2.0 * M_PI * tau / roll_period + roll_phase));

@@ -215,3 +215,244 @@ TEST(SimSetup, SequenceYamlFollowsTheContract) {
   EXPECT_NEAR(loaded.sonar.range_noise_std, 0.02, 1e-12);
   EXPECT_LT((loaded.camera.T_b_c.matrix() - setup.config.camera.T_b_c.matrix()).norm(), 1e-9);
 }
+
+namespace {
+
+std::vector<std::string> withBase(std::vector<std::string> extra) {
+  std::vector<std::string> args = {"--scenario", "tank", "--duration", "20", "--seed", "1", "--out", "d"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return args;
+}
+
+std::string setupErrorOf(const std::vector<std::string>& args) {
+  try {
+    buildSimSetup(*parseSimCommandLine(args));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(SimCommandLine, TerrainPresetsAndOverrides) {
+  const auto defaults = parseSimCommandLine(withBase({}));
+  ASSERT_TRUE(defaults.has_value());
+  EXPECT_EQ(defaults->terrain.preset, "flat");
+  EXPECT_FALSE(defaults->depth_hold_z.has_value());
+  EXPECT_FALSE(defaults->pressure.enabled);
+  EXPECT_TRUE(resolveTerrain(defaults->terrain, 1).isFlat());
+
+  const TerrainParams slope4 = terrainFromOptions(parseSimCommandLine(withBase({"--terrain", "slope4"}))->terrain);
+  EXPECT_EQ(slope4.slope_deg, 4.0);
+  EXPECT_EQ(slope4.relief_m, 0.25);
+  EXPECT_EQ(slope4.relief_wavelength_m, 30.0);
+  EXPECT_EQ(slope4.roughness_m, 0.02);
+  EXPECT_EQ(slope4.rock_height_m * slope4.rock_density, 0.0);
+  const TerrainParams rough = terrainPreset("rough");
+  EXPECT_EQ(rough.slope_deg, 2.0);
+  EXPECT_EQ(rough.roughness_m, 0.1);
+  EXPECT_EQ(rough.rock_height_m, 0.3);
+  EXPECT_GT(rough.rock_density, 0.0);
+  EXPECT_GT(terrainPreset("hills").relief_m, 0.5);
+  EXPECT_THROW(terrainPreset("moon"), std::invalid_argument);
+
+  const auto overridden = parseSimCommandLine(withBase(
+      {"--terrain", "rough", "--terrain-slope-deg", "6.5", "--terrain-slope-azimuth-deg", "270", "--terrain-relief-m",
+       "0.4", "--terrain-relief-wavelength-m", "22", "--terrain-roughness-m", "0.05", "--terrain-rock-height-m", "0.2",
+       "--terrain-rock-density", "0.02", "--depth-hold", "4.5", "--pressure", "--pressure-rate-hz", "20",
+       "--pressure-atmospheric-error-pa", "-300", "--pressure-spikes", "0.01", "--pressure-off", "3:4"}));
+  ASSERT_TRUE(overridden.has_value());
+  const TerrainParams t = resolveTerrain(overridden->terrain, 17);
+  EXPECT_EQ(t.slope_deg, 6.5);
+  EXPECT_EQ(t.slope_azimuth_deg, 270.0);
+  EXPECT_EQ(t.relief_m, 0.4);
+  EXPECT_EQ(t.relief_wavelength_m, 22.0);
+  EXPECT_EQ(t.roughness_m, 0.05);
+  EXPECT_EQ(t.rock_height_m, 0.2);
+  EXPECT_EQ(t.rock_density, 0.02);
+  EXPECT_EQ(*overridden->depth_hold_z, 4.5);
+  EXPECT_TRUE(overridden->pressure.enabled);
+  EXPECT_EQ(overridden->pressure.rate_hz, 20.0);
+  EXPECT_EQ(overridden->pressure.atmospheric_error_pa, -300.0);
+  EXPECT_EQ(overridden->pressure.spike_fraction, 0.01);
+  ASSERT_EQ(overridden->spans.pressure_off.size(), 1u);
+  // A single override on the flat preset; the azimuth is then seeded by the world seed.
+  const auto sloped = parseSimCommandLine(withBase({"--terrain-slope-deg", "3"}));
+  const TerrainParams a = resolveTerrain(sloped->terrain, 1), b = resolveTerrain(sloped->terrain, 1),
+                      c = resolveTerrain(sloped->terrain, 2);
+  EXPECT_EQ(a.slope_deg, 3.0);
+  EXPECT_EQ(a.relief_m, 0.0);
+  EXPECT_EQ(a.slope_azimuth_deg, b.slope_azimuth_deg);
+  EXPECT_EQ(a.seed, b.seed);
+  EXPECT_NE(a.slope_azimuth_deg, c.slope_azimuth_deg);
+  EXPECT_NE(a.seed, c.seed);
+  EXPECT_GE(a.slope_azimuth_deg, 0.0);
+  EXPECT_LT(a.slope_azimuth_deg, 360.0);
+  EXPECT_TRUE(parseSimCommandLine(withBase({"--terrain", "hills", "--altitude-hold"})).has_value());
+}
+
+TEST(SimCommandLine, TerrainAndPressureErrorsNameTheFlag) {
+  auto expectError = [](const std::vector<std::string>& extra, const std::string& flag) {
+    const std::string error = errorOf(withBase(extra));
+    EXPECT_EQ(error.rfind(flag + ":", 0), 0u) << "'" << error << "' for " << extra.front();
+  };
+  expectError({"--terrain", "moon"}, "--terrain");
+  expectError({"--terrain-slope-deg", "16"}, "--terrain-slope-deg");
+  expectError({"--terrain-slope-deg", "-1"}, "--terrain-slope-deg");
+  expectError({"--terrain-slope-azimuth-deg", "400"}, "--terrain-slope-azimuth-deg");
+  expectError({"--terrain-relief-m", "3"}, "--terrain-relief-m");
+  expectError({"--terrain-relief-wavelength-m", "1"}, "--terrain-relief-wavelength-m");
+  expectError({"--terrain-roughness-m", "0.5"}, "--terrain-roughness-m");
+  expectError({"--terrain-rock-height-m", "0.6"}, "--terrain-rock-height-m");
+  expectError({"--terrain-rock-density", "0.5"}, "--terrain-rock-density");
+  expectError({"--terrain-rock-density", "x"}, "--terrain-rock-density");
+  expectError({"--depth-hold", "0.5"}, "--depth-hold");
+  expectError({"--depth-hold", "4", "--altitude-hold"}, "--altitude-hold");
+  expectError({"--altitude-hold", "--depth-hold", "4"}, "--depth-hold");
+  expectError({"--pressure-rate-hz", "20"}, "--pressure-rate-hz");  // without --pressure
+  expectError({"--pressure-spikes", "0.1"}, "--pressure-spikes");
+  expectError({"--pressure-atmospheric-error-pa", "100"}, "--pressure-atmospheric-error-pa");
+  expectError({"--pressure-off", "1:2"}, "--pressure-off");
+  expectError({"--pressure", "--pressure-rate-hz", "0.5"}, "--pressure-rate-hz");
+  expectError({"--pressure", "--pressure-rate-hz", "60"}, "--pressure-rate-hz");
+  expectError({"--pressure", "--pressure-spikes", "0.9"}, "--pressure-spikes");
+  expectError({"--pressure", "--pressure-atmospheric-error-pa", "5e4"}, "--pressure-atmospheric-error-pa");
+  // The set-up checks the designed trajectory: a depth hold that meets the sloping seabed, one
+  // that leaves the water.
+  const std::string too_low = setupErrorOf({"--scenario", "field", "--duration", "300", "--seed", "1", "--out", "d",
+                                            "--terrain", "slope4", "--depth-hold", "2"});
+  EXPECT_EQ(too_low.rfind("--depth-hold: the designed altitude falls to", 0), 0u) << too_low;
+  const std::string above = setupErrorOf(withBase({"--pressure", "--depth-hold", "12"}));
+  EXPECT_EQ(above.rfind("--depth-hold: the pressure port reaches the water surface", 0), 0u) << above;
+  EXPECT_EQ(setupErrorOf(withBase({"--terrain", "rough", "--depth-hold", "4", "--pressure"})), "");
+}
+
+TEST(SimTruth, TerrainAndPressureRoundTripAndRebuildTheSeabed) {
+  SimOptions options;
+  options.scenario = Scenario::kTank;
+  options.duration = 30;
+  options.seed = 3;
+  options.world_seed = 8;
+  options.out_dir = "/tmp/x/terrain";
+  options.terrain.preset = "rough";
+  options.depth_hold_z = 4.25;
+  options.pressure.enabled = true;
+  options.pressure.atmospheric_error_pa = 250.0;
+  options.pressure.spike_fraction = 0.02;
+  options.spans.pressure_off = {{5.0, 7.5}};
+  const SimSetup setup = buildSimSetup(options);
+  const SimTruth& truth = setup.truth;
+  const fs::path path = tempPath("vims_truth_terrain") += ".yaml";
+  truth.save(path.string());
+  const SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  EXPECT_EQ(loaded.toYaml(), truth.toYaml());
+  EXPECT_EQ(loaded.terrain.seed, setup.terrain->params().seed);
+  EXPECT_EQ(loaded.terrain.slope_azimuth_deg, setup.terrain->params().slope_azimuth_deg);
+  EXPECT_EQ(loaded.terrain.rock_density, 0.05);
+  ASSERT_TRUE(loaded.depth_hold_z.has_value());
+  EXPECT_EQ(*loaded.depth_hold_z, 4.25);
+  ASSERT_TRUE(loaded.pressure.has_value());
+  EXPECT_EQ(loaded.pressure->water.surface_z, truth.pressure->water.surface_z);
+  EXPECT_GE(loaded.pressure->water.surface_z, 9.0);
+  EXPECT_LE(loaded.pressure->water.surface_z, 11.0);
+  EXPECT_EQ(loaded.pressure->water.atmospheric_pa, 101325.0);
+  EXPECT_EQ(loaded.pressure->water.density, 1000.0);  // the tank: fresh water
+  EXPECT_EQ(loaded.pressure->atmospheric_error_pa, 250.0);
+  EXPECT_EQ(loaded.pressure->spike_fraction, 0.02);
+  ASSERT_EQ(loaded.dropouts.pressure_off.size(), 1u);
+  EXPECT_EQ(loaded.dropouts.pressure_off[0].end, 7.5);
+  // The coil lies on the terrain.
+  EXPECT_EQ(truth.coil.position_w.z(), setup.terrain->height(truth.coil.position_w.x(), truth.coil.position_w.y()));
+  // The evaluation's rebuilt seabed is the simulator's.
+  const SeabedTerrain rebuilt = terrainFromTruth(loaded);
+  for (double x = -10; x <= 10; x += 0.37) {
+    for (double y = -10; y <= 10; y += 0.41) ASSERT_EQ(rebuilt.height(x, y), setup.terrain->height(x, y));
+  }
+  // The sequence YAML has the calibration only: no terrain, no surface.
+  const std::string yaml = setup.config.toYaml();
+  EXPECT_EQ(yaml.find("terrain"), std::string::npos);
+  EXPECT_EQ(yaml.find("surface"), std::string::npos);
+  EXPECT_NE(yaml.find("pressure: /pressure"), std::string::npos);
+  ASSERT_TRUE(setup.config.pressure.has_value());
+  EXPECT_EQ(setup.config.pressure->atmospheric_pa, 101325.0 + 250.0);
+}
+
+TEST(SimTruth, FilesWithoutTheNewKeysAreFlatAndBadTerrainIsRejected) {
+  SimOptions options;
+  options.duration = 10;
+  options.seed = 1;
+  options.out_dir = "/tmp/x/seq_flat";
+  const std::string flat_yaml = buildSimSetup(options).truth.toYaml();
+  for (const char* key : {"terrain", "pressure", "depth_hold_z", "surface"}) {
+    EXPECT_EQ(flat_yaml.find(key), std::string::npos) << key;  // the file of a flat sequence is as it always was
+  }
+  const fs::path path = tempPath("vims_truth_old") += ".yaml";
+  auto write = [&](const std::string& text) {
+    std::ofstream out(path);
+    out << text;
+  };
+  write(flat_yaml);
+  const SimTruth old = SimTruth::load(path.string());
+  EXPECT_TRUE(old.terrain.isFlat());
+  EXPECT_TRUE(terrainFromTruth(old).isFlat());
+  EXPECT_FALSE(old.pressure.has_value());
+  EXPECT_FALSE(old.depth_hold_z.has_value());
+
+  options.terrain.preset = "slope4";
+  const std::string terrain_yaml = buildSimSetup(options).truth.toYaml();
+  auto expectError = [&](const std::string& text, const std::string& key) {
+    write(text);
+    try {
+      SimTruth::load(path.string());
+      ADD_FAILURE() << "no error for " << key;
+    } catch (const vims::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
+  std::string extra_key = terrain_yaml;
+  extra_key.replace(extra_key.find("  slope_deg:"), 0, "  colour: brown\n");
+  expectError(extra_key, "colour");
+  std::string wrong_wave = terrain_yaml;
+  wrong_wave.replace(wrong_wave.find("relief_m: 0.25"), 14, "relief_m: 0.26");
+  expectError(wrong_wave, "terrain.relief_waves");
+  fs::remove(path);
+}
+
+TEST(SimSetup, PressureSensorFollowsTheContractAndLeavesTheRigAlone) {
+  SimOptions options;
+  options.scenario = Scenario::kField;
+  options.duration = 30;
+  options.seed = 8;
+  options.out_dir = "/tmp/x/p";
+  const SimSetup plain = buildSimSetup(options);
+  options.pressure.enabled = true;
+  const SimSetup with_pressure = buildSimSetup(options);
+  EXPECT_FALSE(plain.config.pressure.has_value());
+  ASSERT_TRUE(with_pressure.config.pressure.has_value());
+  // Adding the sensor changes no other calibration and no other truth.
+  vims::SequenceConfig without = with_pressure.config;
+  without.pressure.reset();
+  EXPECT_EQ(without.toYaml(), plain.config.toYaml());
+  EXPECT_EQ(with_pressure.truth.coil.position_w, plain.truth.coil.position_w);
+  EXPECT_EQ(with_pressure.truth.gyro_bias, plain.truth.gyro_bias);
+
+  const fs::path path = tempPath("vims_seq_pressure") += ".yaml";
+  with_pressure.config.save(path.string());
+  std::vector<std::string> unknown;
+  const vims::SequenceConfig loaded = vims::SequenceConfig::load(path.string(), &unknown);
+  fs::remove(path);
+  EXPECT_TRUE(unknown.empty());
+  ASSERT_TRUE(loaded.pressure.has_value());
+  const vims::PressureCalibration& p = *loaded.pressure;
+  EXPECT_EQ(loaded.topics.pressure, "/pressure");
+  EXPECT_EQ(p.rate_hz, 10.0);
+  EXPECT_EQ(p.noise_std_pa, 80.0);
+  EXPECT_EQ(p.atmospheric_pa, 101325.0);
+  EXPECT_EQ(p.water_density, 1025.0);  // the field: sea water
+  EXPECT_LT((p.T_b_p.linear() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_LT((p.T_b_p.translation() - Eigen::Vector3d(-0.30, 0.0, 0.10)).cwiseAbs().maxCoeff(), 0.031);
+  EXPECT_GE(with_pressure.truth.pressure->water.surface_z, 27.0);
+  EXPECT_LE(with_pressure.truth.pressure->water.surface_z, 33.0);
+}

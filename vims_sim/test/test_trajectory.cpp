@@ -1,9 +1,11 @@
 // The trajectory model: B-spline basis, analytic derivative consistency, IMU integration back
-// to the ground truth, the static start, the motion envelope and the revisit structure.
+// to the ground truth, the static start, the motion envelope, the revisit structure, and the
+// vertical modes over terrain (altitude hold, depth hold).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 
 #include "vims_sim/bspline.h"
 #include "vims_sim/sensor_models.h"
@@ -238,4 +240,88 @@ TEST(Trajectory, TankRevisitsPlacesCrossingAndInOppositeDirection) {
   }
   EXPECT_GE(crossings, 5);
   EXPECT_GE(opposite, 3);
+}
+
+namespace {
+
+TrajectoryParams terrainTrajectoryParams(Scenario scenario, double duration, uint64_t seed,
+                                         const TerrainParams& terrain) {
+  TrajectoryParams p;
+  p.scenario = scenario;
+  p.duration = duration;
+  p.seed = seed;
+  p.terrain = terrain;
+  return p;
+}
+
+TerrainParams hillyTerrain(double slope_deg) {
+  TerrainParams t;
+  t.slope_deg = slope_deg;
+  t.slope_azimuth_deg = 110.0;
+  t.relief_m = 1.0;
+  t.relief_wavelength_m = 30.0;
+  t.roughness_m = 0.05;
+  t.rock_height_m = 0.3;
+  t.rock_density = 0.05;
+  t.seed = 77;
+  return t;
+}
+
+}  // namespace
+
+// Altitude hold: the designed height is the large-scale seabed (plane + relief) plus the
+// altitude profile, so the altitude above it stays in the profile's range; the hull pitches
+// with the climb; the IMU still integrates back exactly.
+TEST(Trajectory, AltitudeHoldFollowsTheLargeScaleSeabed) {
+  for (const auto& [scenario, slope] : {std::make_pair(Scenario::kTank, 4.0), std::make_pair(Scenario::kField, 8.0)}) {
+    const TerrainParams terrain_params = hillyTerrain(slope);
+    const Trajectory traj = Trajectory::design(terrainTrajectoryParams(scenario, 750.0, 5, terrain_params));
+    const SeabedTerrain terrain(terrain_params);
+    double min_alt = 1e9, max_alt = -1e9, min_clearance = 1e9, min_z = 1e9, max_z = -1e9, pitch_climb = 0.0;
+    for (double t = 0.0; t < 750.0; t += 0.1) {
+      const TrajectoryState s = traj.sample(t);
+      const double altitude = s.p_w_b.z() - terrain.largeScale(s.p_w_b.x(), s.p_w_b.y());
+      min_alt = std::min(min_alt, altitude);
+      max_alt = std::max(max_alt, altitude);
+      min_clearance = std::min(min_clearance, s.p_w_b.z() - terrain.height(s.p_w_b.x(), s.p_w_b.y()));
+      min_z = std::min(min_z, s.p_w_b.z());
+      max_z = std::max(max_z, s.p_w_b.z());
+      // The nose rises with the climb (pitch about +y of FLU is nose-down, pitch = trim - 0.2 climb).
+      const Eigen::Vector3d forward = s.q_w_b * Eigen::Vector3d::UnitX();
+      pitch_climb += std::asin(forward.z()) * s.v_w_b.z();
+    }
+    std::cout << scenarioName(scenario) << " over " << slope << " deg + 1 m relief: altitude above the large scale "
+              << min_alt << " .. " << max_alt << " m, above the full terrain >= " << min_clearance << " m, z " << min_z
+              << " .. " << max_z << " m\n";
+    EXPECT_GT(min_alt, 1.9) << scenarioName(scenario);
+    EXPECT_LT(max_alt, 5.1) << scenarioName(scenario);
+    EXPECT_GT(min_clearance, 1.2) << scenarioName(scenario);
+    EXPECT_GT(max_z - min_z, 4.0) << scenarioName(scenario);  // it really follows the seabed
+    EXPECT_GT(pitch_climb, 0.0) << scenarioName(scenario);     // nose up while climbing
+  }
+  double rotation_error = 0.0;
+  const Trajectory field = Trajectory::design(terrainTrajectoryParams(Scenario::kField, 600.0, 4, hillyTerrain(8.0)));
+  EXPECT_LT(imuIntegrationDrift(field, 200.0, 260.0, &rotation_error), 0.01);
+  EXPECT_LT(rotation_error, 1e-5);
+}
+
+TEST(Trajectory, DepthHoldKeepsAConstantHeight) {
+  TrajectoryParams p = terrainTrajectoryParams(Scenario::kTank, 300.0, 6, hillyTerrain(4.0));
+  p.depth_hold_z = 4.5;
+  const Trajectory traj = Trajectory::design(p);
+  for (double t = 0.0; t < 300.0; t += 0.5) {
+    const TrajectoryState s = traj.sample(t);
+    ASSERT_NEAR(s.p_w_b.z(), 4.5, 1e-12) << t;
+    ASSERT_NEAR(s.v_w_b.z(), 0.0, 1e-12) << t;
+  }
+  // The flat default is the plain altitude profile.
+  TrajectoryParams flat = p;
+  flat.terrain = TerrainParams();
+  flat.depth_hold_z.reset();
+  TrajectoryParams plain;
+  plain.scenario = Scenario::kTank;
+  plain.duration = 300.0;
+  plain.seed = 6;
+  const Trajectory a = Trajectory::design(flat), b = Trajectory::design(plain);
+  for (double t = 0.0; t < 300.0; t += 1.3) ASSERT_EQ(a.sample(t).p_w_b, b.sample(t).p_w_b);
 }

@@ -1,12 +1,14 @@
 #pragma once
 /// @file seabed_renderer.h
-/// @brief Renders what the downward camera sees of the flat textured seabed, underwater.
+/// @brief Renders what the downward camera sees of the textured seabed, underwater.
 ///
-/// Per pixel: the undistorted viewing ray (precomputed once) is intersected with the seabed
-/// plane z = 0; the albedo is looked up in the seabed texture with trilinear mip filtering
-/// (level from the pixel's footprint on the seabed, so no aliasing shimmer); the lamp's light
-/// (co-located with the camera, Gaussian beam) reaches the seabed with 1/r^2 spreading and
-/// attenuation exp(-c r) both ways, the surface is Lambertian; backscatter haze from the lit
+/// Per pixel: the undistorted viewing ray (precomputed once) is intersected with the seabed:
+/// the plane z = 0, or the terrain's surface h(x, y) (ray-traced, rocks and occlusion
+/// included); the albedo is looked up in the seabed texture at the hit's (x, y) with trilinear
+/// mip filtering (level from the pixel's footprint on the surface, so no aliasing shimmer); the
+/// lamp's light (co-located with the camera, Gaussian beam) reaches the seabed with 1/r^2
+/// spreading and attenuation exp(-c r) both ways, the surface is Lambertian (true normal);
+/// backscatter haze from the lit
 /// water column grows with range; the lens adds cos^n vignetting and a mild Gaussian blur; the
 /// sensor adds shot and read noise; a Rec.709 response curve maps to 8 bits.
 /// With the lamp off (lamp failure) only the sensor noise remains.
@@ -19,6 +21,7 @@
 
 #include "vims_common/sequence_config.h"
 #include "vims_sim/seabed_texture.h"
+#include "vims_sim/terrain.h"
 
 namespace vims {
 namespace sim {
@@ -55,8 +58,9 @@ class SeabedRenderer {
     cv::Mat signal, blurred, noise;
   };
 
+  /// `terrain`: the seabed's shape; null or flat: the plane z = 0.
   SeabedRenderer(const CameraCalibration& calibration, std::shared_ptr<const SeabedTexture> texture,
-                 UnderwaterOptics optics = UnderwaterOptics());
+                 UnderwaterOptics optics = UnderwaterOptics(), std::shared_ptr<const SeabedTerrain> terrain = nullptr);
 
   /// Renders the mono8 image seen from camera pose T_w_c (camera optical frame in world).
   /// `noise_seed` fixes the sensor noise (same seed, same pose: identical image).
@@ -69,14 +73,28 @@ class SeabedRenderer {
   /// tests and for calibrating the photometry.
   cv::Mat renderSignal(const Eigen::Isometry3d& T_w_c) const;
 
+  /// Where each pixel's ray meets the seabed (for tests): `hit` CV_8UC1 (1: the ray meets the
+  /// seabed within max_range), and CV_32FC1 range [m], cos_incidence (of the ray on the surface
+  /// normal) and the hit's x and y relative to the camera [m].
+  struct ViewGeometry {
+    cv::Mat hit, range, cos_incidence, ground_x, ground_y;
+  };
+  ViewGeometry viewGeometry(const Eigen::Isometry3d& T_w_c) const;
+
   const UnderwaterOptics& optics() const { return optics_; }
 
  private:
+  /// What step 1 of a frame (the ray casting) tells the texture sampling.
+  struct SeenRegion;
   void computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws) const;
+  void traceRays(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const;
+  void tracePlane(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const;
+  void traceTerrain(const Eigen::Isometry3d& T_w_c, Workspace& ws, SeenRegion* seen) const;
 
   CameraCalibration calib_;
   std::shared_ptr<const SeabedTexture> texture_;
   UnderwaterOptics optics_;
+  std::shared_ptr<const SeabedTerrain> terrain_;  ///< null: the flat seabed z = 0
   std::vector<Eigen::Vector3f> rays_c_;  ///< per pixel, undistorted, z = 1
   std::vector<float> ray_norm_;          ///< |ray|
   std::vector<float> pixel_angle_;       ///< angle subtended by the pixel (larger of its two sides) [rad]

@@ -1,14 +1,17 @@
 #pragma once
 /// @file sensor_models.h
-/// @brief Noise models of the IMU, the single-beam sonar altimeter and the magnetometer.
+/// @brief Noise models of the IMU, the single-beam sonar altimeter, the magnetometer and the
+/// pressure (depth) sensor.
 /// Each simulator owns its own random stream, so switching one sensor off (or changing its
 /// dropout spans) never changes another sensor's noise.
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/random.h"
+#include "vims_sim/terrain.h"
 #include "vims_sim/trajectory.h"
 
 namespace vims {
@@ -90,11 +93,17 @@ struct SonarReading {
 
 class SonarSimulator {
  public:
-  SonarSimulator(const SonarParams& params, const Eigen::Isometry3d& T_b_s, uint64_t seed);
+  /// `terrain`: the seabed the beam meets; null or flat: the plane z = 0.
+  SonarSimulator(const SonarParams& params, const Eigen::Isometry3d& T_b_s, uint64_t seed,
+                 std::shared_ptr<const SeabedTerrain> terrain = nullptr);
 
   /// Slant range from the sonar origin along its +z axis to the seabed z = 0 (+inf if the beam
   /// points upwards or is parallel to the seabed).
   static double trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s);
+  /// Slant range along the beam to the first crossing with the terrain's surface, rocks
+  /// included (+inf when the beam meets nothing within max_range).
+  static double trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s,
+                          const SeabedTerrain& terrain, double max_range);
 
   SonarReading measure(const Eigen::Isometry3d& T_w_b);
 
@@ -103,6 +112,57 @@ class SonarSimulator {
  private:
   SonarParams params_;
   Eigen::Isometry3d T_b_s_;
+  Rng rng_;
+  std::shared_ptr<const SeabedTerrain> terrain_;  ///< null when flat
+};
+
+// ---------------------------------------------------------------------------------------------
+// Pressure (depth) sensor
+// ---------------------------------------------------------------------------------------------
+
+/// The water above the vehicle: what turns the port's height into an absolute pressure.
+struct WaterColumn {
+  double surface_z = 10.0;           ///< water surface height in world ENU [m]
+  double atmospheric_pa = 101325.0;  ///< true air pressure on the surface [Pa]
+  double density = 1025.0;           ///< [kg/m^3]
+  double gravity = 9.81;             ///< [m/s^2]
+
+  /// Hydrostatic absolute pressure at world height z [Pa].
+  double pressureAt(double z) const { return atmospheric_pa + density * gravity * (surface_z - z); }
+};
+
+struct PressureParams {
+  double rate_hz = 10.0;
+  /// White noise [Pa]: 80 Pa is 0.8 cm of water, a good AUV depth sensor (0.01 % of a 100 bar
+  /// range) sampled at 10 Hz.
+  double noise_std_pa = 80.0;
+  double spike_fraction = 0.0;  ///< bad-input testing: this fraction of samples carries a spike
+  double spike_min_pa = 1.5e4;  ///< spike magnitude U(min, max), random sign (1.5-2.5 m of water)
+  double spike_max_pa = 2.5e4;
+};
+
+struct PressureReading {
+  double pressure = 0.0;       ///< measured absolute pressure [Pa]
+  double true_pressure = 0.0;  ///< noise-free [Pa]
+  bool spike = false;
+};
+
+class PressureSimulator {
+ public:
+  PressureSimulator(const PressureParams& params, const Eigen::Isometry3d& T_b_p, const WaterColumn& water,
+                    uint64_t seed);
+
+  /// Noise-free absolute pressure at the port T_w_b * T_b_p (only its height matters).
+  static double truePressure(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_p, const WaterColumn& water);
+
+  PressureReading measure(const Eigen::Isometry3d& T_w_b);
+
+  const PressureParams& params() const { return params_; }
+
+ private:
+  PressureParams params_;
+  Eigen::Isometry3d T_b_p_;
+  WaterColumn water_;
   Rng rng_;
 };
 

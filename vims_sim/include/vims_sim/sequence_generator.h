@@ -7,7 +7,8 @@
 /// Clock: every stream is a fixed grid of integer nanoseconds from the start time, so rates
 /// are exact and stamps strictly increasing: IMU and ground-truth TUM every 5 ms, magnetometer
 /// every 1 ms, ground-truth pose messages every 20 ms, camera exposures every 100 ms (stamp =
-/// exposure + camera delay), sonar pings every 100 ms offset by 50 ms. Samples with true time in
+/// exposure + camera delay), sonar pings every 100 ms offset by 50 ms, pressure samples (if any)
+/// every 1 / rate offset by a quarter period (25 ms at 10 Hz). Samples with true time in
 /// [0, duration) are produced; dropout spans remove (or black out) some of them.
 ///
 /// Images are rendered by worker threads a bounded number of frames ahead of the writer, so
@@ -35,12 +36,15 @@ class SimSink {
   virtual void sonar(int64_t stamp_ns, double range) = 0;
   virtual void magnetometer(int64_t stamp_ns, const Eigen::Vector3d& field_m) = 0;
   virtual void groundTruth(int64_t stamp_ns, const Eigen::Isometry3d& T_w_b) = 0;
+  /// Absolute pressure at the port [Pa]; only called when the sequence has a pressure sensor.
+  virtual void pressure(int64_t stamp_ns, double pressure_pa) = 0;
 };
 
 struct GenerationStats {
   double wall_seconds = 0.0;
   double realtime_factor = 0.0;  ///< simulated seconds per wall-clock second
   int64_t imu_messages = 0, image_messages = 0, sonar_messages = 0, mag_messages = 0, pose_messages = 0;
+  int64_t pressure_messages = 0;
   int64_t blackout_frames = 0;
   int corner_frames = 0;          ///< frames on which corners were counted (every 5th lit frame)
   double median_corners = 0.0;    ///< Shi-Tomasi (300, 0.01, 15) per frame, median

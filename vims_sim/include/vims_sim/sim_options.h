@@ -13,6 +13,33 @@
 namespace vims {
 namespace sim {
 
+/// The seabed's shape: a preset and per-term overrides (unset: the preset's value).
+struct TerrainOptions {
+  std::string preset = "flat";  ///< see terrainPresetNames()
+  std::optional<double> slope_deg;
+  std::optional<double> slope_azimuth_deg;  ///< unset: seeded from the world seed
+  std::optional<double> relief_m;
+  std::optional<double> relief_wavelength_m;
+  std::optional<double> roughness_m;
+  std::optional<double> rock_height_m;
+  std::optional<double> rock_density;  ///< per m^2
+};
+
+/// "flat", "slope4", "rough", "hills".
+const std::vector<std::string>& terrainPresetNames();
+/// The preset's terrain (slope azimuth 0 and seed 0: the set-up seeds them). Throws
+/// std::invalid_argument for an unknown name.
+TerrainParams terrainPreset(const std::string& name);
+/// The preset with the overrides applied; azimuth and seed still to be set.
+TerrainParams terrainFromOptions(const TerrainOptions& options);
+
+struct PressureOptions {
+  bool enabled = false;              ///< --pressure: a depth sensor on /pressure
+  double rate_hz = 10.0;
+  double atmospheric_error_pa = 0.0;  ///< the YAML's atmospheric_pa is off by this from the truth
+  double spike_fraction = 0.0;        ///< fraction of samples with a large spike
+};
+
 struct SimOptions {
   Scenario scenario = Scenario::kTank;
   double duration = 0.0;                ///< [s]
@@ -26,6 +53,9 @@ struct SimOptions {
   double start_time = 1700000000.0;     ///< bag-clock time of the sequence start [s]
   bool lz4 = false;                     ///< lz4-compressed bag chunks
   int render_threads = 0;               ///< 0: one per hardware thread
+  TerrainOptions terrain;               ///< default: the flat seabed z = 0
+  std::optional<double> depth_hold_z;   ///< [m] constant body z; unset: altitude hold
+  PressureOptions pressure;
 
   uint64_t worldSeed() const { return world_seed ? *world_seed : seed; }
   /// `name`, or the basename of out_dir when empty.

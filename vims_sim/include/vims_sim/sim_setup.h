@@ -2,7 +2,7 @@
 /// @file sim_setup.h
 /// @brief Everything a sequence is made of, derived deterministically from its options:
 /// the rig (camera intrinsics, extrinsics, noise figures) from the trajectory seed, the site
-/// (seabed, coil position, geomagnetic field) from the world seed.
+/// (seabed texture and shape, coil position, geomagnetic field, water depth) from the world seed.
 
 #include "vims_common/sequence_config.h"
 #include "vims_sim/magnetic_field.h"
@@ -11,7 +11,10 @@
 #include "vims_sim/sensor_models.h"
 #include "vims_sim/sim_options.h"
 #include "vims_sim/sim_truth.h"
+#include "vims_sim/terrain.h"
 #include "vims_sim/trajectory.h"
+
+#include <memory>
 
 namespace vims {
 namespace sim {
@@ -37,9 +40,17 @@ struct SimSetup {
   MagnetometerParams magnetometer;
   SeabedTextureParams texture;
   UnderwaterOptics optics;
+  std::shared_ptr<const SeabedTerrain> terrain;  ///< the seabed's shape (never null; flat by default)
+  PressureParams pressure;                       ///< used when config.pressure is set
 };
 
-/// Validates the options (std::invalid_argument naming the flag) and derives the setup.
+/// The seabed of the options: the preset with its overrides, the slope azimuth (unless given)
+/// and the shape's seed from the world seed.
+TerrainParams resolveTerrain(const TerrainOptions& options, uint64_t world_seed);
+
+/// Validates the options (std::invalid_argument naming the flag) and derives the setup. Also
+/// an error: a designed trajectory that comes closer than 1 m to the seabed, or a pressure
+/// port that leaves the water.
 SimSetup buildSimSetup(const SimOptions& options);
 
 }  // namespace sim

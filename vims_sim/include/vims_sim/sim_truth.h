@@ -3,15 +3,24 @@
 /// @brief What the simulator knows and the estimator must not: `<seq>_truth.yaml`.
 ///
 /// Evaluation tools read it to score the coil localisation, the geomagnetic reference, the
-/// camera time-delay estimate and the IMU bias estimates, and to know which spans had sensor
-/// dropouts. The estimator never reads this file (sensor-contract.md).
+/// camera time-delay estimate and the IMU bias estimates, to know which spans had sensor
+/// dropouts, to rebuild the seabed (terrainFromTruth) and to know the water column of the
+/// pressure sensor. The estimator never reads this file (sensor-contract.md).
+///
+/// Keys that only some sequences have (terrain, pressure, depth_hold_z, dropouts.pressure_off)
+/// are written only when they are used, so a flat sequence without a pressure sensor has the
+/// same file as before they existed, and such old files load (no terrain key: flat).
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include <optional>
+
 #include "vims_sim/magnetic_field.h"
+#include "vims_sim/sensor_models.h"
+#include "vims_sim/terrain.h"
 
 namespace vims {
 namespace sim {
@@ -33,6 +42,16 @@ struct DropoutSpans {
   std::vector<TimeSpan> sonar_off;        ///< no sonar messages
   std::vector<TimeSpan> mag_off;          ///< no magnetometer messages
   std::vector<TimeSpan> imu_gap;          ///< no IMU messages
+  std::vector<TimeSpan> pressure_off;     ///< no pressure messages
+};
+
+/// The pressure sensor's world: the water column and the faults injected for testing.
+struct PressureTruth {
+  WaterColumn water;                  ///< surface height, true atmospheric pressure, density, gravity
+  double atmospheric_error_pa = 0.0;  ///< <seq>.yaml's atmospheric_pa minus the true one
+  double spike_fraction = 0.0;        ///< fraction of samples with a spike
+  double spike_min_pa = 0.0;          ///< spike magnitude range (random sign)
+  double spike_max_pa = 0.0;
 };
 
 struct SimTruth {
@@ -57,14 +76,22 @@ struct SimTruth {
 
   DropoutSpans dropouts;
 
+  TerrainParams terrain;                ///< the seabed (flat unless the sequence had terrain)
+  std::optional<PressureTruth> pressure;  ///< set when the sequence has a pressure sensor
+  std::optional<double> depth_hold_z;   ///< [m] set when the vehicle held a constant z instead of its altitude
+
   /// YAML text (numbers with round-trip precision).
   std::string toYaml() const;
   /// Writes the file; throws std::runtime_error on I/O failure.
   void save(const std::string& path) const;
   /// Reads a file written by save(). Throws vims::ConfigError naming the bad key (unknown keys,
-  /// wrong types, a coil moment or field vector inconsistent with the other values).
+  /// wrong types, a coil moment, field vector or terrain wave list inconsistent with the other
+  /// values).
   static SimTruth load(const std::string& path);
 };
+
+/// The seabed of a sequence, rebuilt from its truth (the same h(x, y) the simulator used).
+SeabedTerrain terrainFromTruth(const SimTruth& truth);
 
 }  // namespace sim
 }  // namespace vims

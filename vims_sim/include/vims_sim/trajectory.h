@@ -6,7 +6,8 @@
 /// Design (see docs/simulator.md): a scenario's survey pattern (waypoints with rounded
 /// corners, repeated in laps with seeded variation) is followed with a smooth speed profile
 /// (cruise speed varying along the path, slower in turns, bounded longitudinal and lateral
-/// acceleration) and an altitude profile between about 2 and 5 m. That design is sampled once
+/// acceleration) and an altitude profile between about 2 and 5 m above the large-scale seabed
+/// (plane and rolling relief of the terrain; or a constant depth, see TrajectoryParams). That design is sampled once
 /// per second into the control points of a quintic uniform B-spline for the position and one
 /// for the Euler angles (yaw = path heading plus a small crab angle, gentle roll/pitch).
 /// Everything sample() returns is the spline and its exact derivatives, so the IMU derived
@@ -14,10 +15,12 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "vims_sim/bspline.h"
+#include "vims_sim/terrain.h"
 
 namespace vims {
 namespace sim {
@@ -56,6 +59,12 @@ struct TrajectoryParams {
   uint64_t seed = 1;            ///< trajectory seed: fixes the per-lap variation, speeds, attitude motion
   double static_start = 3.0;    ///< [s] the vehicle is exactly at rest on [-margin, static_start]
   double margin = 5.0;          ///< [s] extra time the model covers on both sides
+  /// The seabed. Altitude hold (the default) flies the altitude profile above its large-scale
+  /// shape (plane + rolling relief, not the roughness or the rocks); flat: above z = 0.
+  TerrainParams terrain;
+  /// Depth hold instead: the body stays at this constant world z [m] (the altitude then
+  /// changes with the seabed).
+  std::optional<double> depth_hold_z;
 };
 
 class Trajectory {

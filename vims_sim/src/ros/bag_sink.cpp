@@ -1,6 +1,7 @@
 #include "bag_sink.h"
 
 #include <geometry_msgs/PoseStamped.h>
+#include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
@@ -119,6 +120,17 @@ void BagSink::groundTruth(int64_t stamp_ns, const Eigen::Isometry3d& T_w_b) {
   msg.pose.orientation.z = q.z();
   msg.pose.orientation.w = q.w();
   bag_.write(kGroundTruthTopic, msg.header.stamp, msg);
+}
+
+void BagSink::pressure(int64_t stamp_ns, double pressure_pa) {
+  if (!config_.pressure) throw std::logic_error("BagSink::pressure: the sequence has no pressure sensor");
+  sensor_msgs::FluidPressure msg;
+  msg.header.seq = pressure_seq_++;
+  msg.header.stamp = toRosTime(stamp_ns);
+  msg.header.frame_id = "pressure";
+  msg.fluid_pressure = pressure_pa;
+  msg.variance = config_.pressure->noise_std_pa * config_.pressure->noise_std_pa;
+  bag_.write(config_.topics.pressure, msg.header.stamp, msg);
 }
 
 }  // namespace sim

@@ -1,8 +1,8 @@
 #pragma once
 /// @file bag_sink.h
 /// @brief ROS glue of the simulator: writes the generated messages into a rosbag following
-/// docs/sensor-contract.md (topics from the sequence config, frame ids camera/body/sonar/mag,
-/// world for the ground truth).
+/// docs/sensor-contract.md (topics from the sequence config, frame ids camera/body/sonar/mag/
+/// pressure, world for the ground truth).
 
 #include <rosbag/bag.h>
 
@@ -26,6 +26,7 @@ class BagSink : public SimSink {
   void sonar(int64_t stamp_ns, double range) override;
   void magnetometer(int64_t stamp_ns, const Eigen::Vector3d& field_m) override;
   void groundTruth(int64_t stamp_ns, const Eigen::Isometry3d& T_w_b) override;
+  void pressure(int64_t stamp_ns, double pressure_pa) override;
 
   /// Flushes and closes the bag (also done by the destructor).
   void close();
@@ -38,7 +39,7 @@ class BagSink : public SimSink {
   SonarParams sonar_;
   double gyro_variance_;
   double accel_variance_;
-  uint32_t image_seq_ = 0, imu_seq_ = 0, sonar_seq_ = 0, mag_seq_ = 0, pose_seq_ = 0;
+  uint32_t image_seq_ = 0, imu_seq_ = 0, sonar_seq_ = 0, mag_seq_ = 0, pose_seq_ = 0, pressure_seq_ = 0;
 };
 
 }  // namespace sim

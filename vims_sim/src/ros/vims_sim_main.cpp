@@ -40,6 +40,18 @@ int main(int argc, char** argv) {
     std::printf("vims_sim: scenario %s, %.1f s, seed %llu, world seed %llu -> %s\n", scenarioName(options->scenario).c_str(),
                 options->duration, static_cast<unsigned long long>(options->seed),
                 static_cast<unsigned long long>(options->worldSeed()), paths.bag.c_str());
+    if (!setup.terrain->isFlat()) {
+      const vims::sim::TerrainParams& t = setup.terrain->params();
+      std::printf("vims_sim: seabed %s: slope %.1f deg downhill towards %.0f deg, relief %.2f m over %.0f m, roughness "
+                  "%.3f m rms, rocks up to %.2f m at %.3f per m^2\n",
+                  options->terrain.preset.c_str(), t.slope_deg, t.slope_azimuth_deg, t.relief_m, t.relief_wavelength_m,
+                  t.roughness_m, t.rock_height_m, t.rock_density);
+    }
+    if (options->depth_hold_z) std::printf("vims_sim: depth hold at z = %.2f m\n", *options->depth_hold_z);
+    if (setup.config.pressure) {
+      std::printf("vims_sim: pressure sensor at %.0f Hz on %s\n", setup.config.pressure->rate_hz,
+                  setup.config.topics.pressure.c_str());
+    }
     std::fflush(stdout);
 
     BagSink sink(paths.bag, options->lz4, setup.config, setup.sonar, setup.imu);
@@ -54,12 +66,12 @@ int main(int argc, char** argv) {
     });
     sink.close();
 
-    std::printf("vims_sim: messages: %lld images (%lld black), %lld imu, %lld sonar, %lld mag, %lld ground-truth poses; "
-                "%zu seabed tiles generated\n",
+    std::printf("vims_sim: messages: %lld images (%lld black), %lld imu, %lld sonar, %lld mag, %lld ground-truth poses",
                 static_cast<long long>(stats.image_messages), static_cast<long long>(stats.blackout_frames),
                 static_cast<long long>(stats.imu_messages), static_cast<long long>(stats.sonar_messages),
-                static_cast<long long>(stats.mag_messages), static_cast<long long>(stats.pose_messages),
-                stats.tiles_generated);
+                static_cast<long long>(stats.mag_messages), static_cast<long long>(stats.pose_messages));
+    if (setup.config.pressure) std::printf(", %lld pressure", static_cast<long long>(stats.pressure_messages));
+    std::printf("; %zu seabed tiles generated\n", stats.tiles_generated);
     std::printf("vims_sim: done: %.1f s of data in %.1f s wall (real-time factor %.1f), typical Shi-Tomasi corners per "
                 "frame %.0f (median of %d frames, min %d)\n",
                 options->duration, stats.wall_seconds, stats.realtime_factor, stats.median_corners, stats.corner_frames,
