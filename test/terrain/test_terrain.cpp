@@ -80,6 +80,14 @@ RunFigures runOn(const std::string& name, const std::string& label, const std::s
   return f;
 }
 
+// Bounds: about twice what the runs measure on the fixtures (120 s of the field, seed 3, 4 deg +
+// 0.25 m relief): local_plane VIO 0.030 % of the distance, tilt 0.18 deg (horizontal: 0.27 %,
+// 1.76 deg); with the pressure factor 0.022 %, 0.056 deg, with the bad pressure input the same.
+constexpr double kTiltBoundDeg = 0.35;
+constexpr double kVioBoundPct = 0.06;
+constexpr double kPressureTiltBoundDeg = 0.12;
+constexpr double kPressureVioBoundPct = 0.045;
+
 const char* kLocalPlane = "  seabed: {model: local_plane}\n  pressure: {enabled: false}\n";
 const char* kHorizontal = "  seabed: {model: horizontal}\n  pressure: {enabled: false}\n";
 const char* kLocalPlanePressure = "  seabed: {model: local_plane}\n  pressure: {enabled: true}\n";
@@ -95,8 +103,8 @@ TEST(Terrain, LocalPlaneFollowsASlopingSeabedThatTheHorizontalModelTilts) {
   const RunFigures level = runOn("terrain_slope4", "horizontal", kHorizontal);
   EXPECT_LT(plane.vio_tilt_deg, 0.5 * level.vio_tilt_deg);
   EXPECT_LT(plane.vio_pct, level.vio_pct);
-  EXPECT_LT(plane.vio_tilt_deg, TERRAIN_TILT_BOUND_DEG);
-  EXPECT_LT(plane.vio_pct, TERRAIN_VIO_BOUND_PCT);
+  EXPECT_LT(plane.vio_tilt_deg, kTiltBoundDeg);
+  EXPECT_LT(plane.vio_pct, kVioBoundPct);
 }
 
 // The pressure factor with a wrong atmospheric offset in the YAML and spikes on the topic: the
@@ -105,6 +113,8 @@ TEST(Terrain, PressureWithAWrongOffsetAndSpikesIsHandled) {
   const RunFigures clean = runOn("terrain_slope4", "pressure", kLocalPlanePressure);
   const RunFigures bad = runOn("terrain_slope4_bad_pressure", "pressure", kLocalPlanePressure);
   EXPECT_TRUE(contains(bad.offline.output, "spike")) << bad.offline.output;
-  EXPECT_LT(bad.vio_pct, 2.0 * clean.vio_pct + 0.005);
-  EXPECT_LT(clean.vio_pct, TERRAIN_VIO_BOUND_PCT);
+  EXPECT_LT(bad.vio_pct, 1.5 * clean.vio_pct);
+  EXPECT_LT(bad.vio_tilt_deg, 1.5 * clean.vio_tilt_deg);
+  EXPECT_LT(clean.vio_pct, kPressureVioBoundPct);
+  EXPECT_LT(clean.vio_tilt_deg, kPressureTiltBoundDeg);
 }

@@ -230,8 +230,13 @@ TEST(VioOnSequence, RangesArrivingAfterTheirImageGiveTheSameOdometry) {
 TEST(VioOnSequence, WrongCameraExtrinsicExceedsTheBound) {
   REQUIRE_SEQUENCE(dir, "tank60");
   // The estimator is given a camera extrinsic rotated by 3 deg about the body x axis and shifted
-  // by 5 cm: a typical hand-measured calibration error.
-  const RunResult run = runVio(dir, vims::EstimatorOptions(), {}, [](vims::SequenceConfig& c) {
+  // by 5 cm: a typical hand-measured calibration error. With the level seabed of the paper the
+  // error shows; the local seabed plane (the default) takes the camera's 3 deg for a sloping
+  // seabed and stays within the bounds (measured: 0.040 %, 0.24 deg), so it is not the model
+  // that can show that the bounds are tight.
+  vims::EstimatorOptions level;
+  level.seabed.model = vims::SeabedModel::kHorizontal;
+  const RunResult run = runVio(dir, level, {}, [](vims::SequenceConfig& c) {
     Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
     delta.linear() = Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
     delta.translation() = Eigen::Vector3d(0.05, 0.0, 0.0);

@@ -107,4 +107,35 @@ bool toSeabedMarkerMsg(double t, const Eigen::Vector2d& body_xy, double seabed_z
   return true;
 }
 
+bool toPointsMarkerMsg(double t, const std::vector<Eigen::Vector3d>& points, double size_m, const std::string& frame,
+                       const std::string& ns, visualization_msgs::Marker* out, std::string* why) {
+  if (!toRosTime(t, &out->header.stamp, why)) return false;
+  out->header.frame_id = frame;
+  out->ns = ns;
+  out->id = 0;
+  out->type = visualization_msgs::Marker::POINTS;
+  out->action = visualization_msgs::Marker::ADD;
+  out->pose.orientation.w = 1.0;
+  out->scale.x = size_m;
+  out->scale.y = size_m;
+  out->color.r = 1.0f;
+  out->color.g = 0.3f;
+  out->color.b = 0.1f;
+  out->color.a = 1.0f;
+  out->points.clear();
+  for (const Eigen::Vector3d& p : points) {
+    if (!p.allFinite()) continue;
+    geometry_msgs::Point q;
+    q.x = p.x();
+    q.y = p.y();
+    q.z = p.z();
+    out->points.push_back(q);
+  }
+  if (out->points.empty()) {
+    if (why) *why = "no finite point";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace vims

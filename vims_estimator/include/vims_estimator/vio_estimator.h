@@ -71,6 +71,8 @@ struct VioFrameResult {
   /// horizontal seabed model); its height below the body is seabed_height - body z when set.
   Eigen::Vector2d seabed_slope = Eigen::Vector2d::Zero();
   std::optional<double> seabed_height;  ///< z of the newest sonar hit in the VIO frame [m]
+  /// The newest frame's sonar beam hit on the seabed in the VIO frame, when it has a range.
+  std::optional<Eigen::Vector3d> sonar_hit;
   double backend_ms = 0.0;   ///< wall time of this frame's optimisation and marginalisation
 };
 

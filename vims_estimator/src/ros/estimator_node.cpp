@@ -18,6 +18,7 @@
 //             vio/keyframe      (vims/Keyframe) keyframes for vims_pose_graph_node
 //             vio/seabed        (visualization_msgs/Marker) the estimated local seabed plane
 //                               under the vehicle (published while someone subscribes)
+//             vio/sonar_hits    (visualization_msgs/Marker) the recent sonar beam hits (ditto)
 //             vio/tracked_image (sensor_msgs/Image, bgr8) the image with the tracked features
 //                               (drawn only while someone subscribes)
 //             tf odom -> base_link (REP 105) at IMU rate (the propagated pose)
@@ -53,6 +54,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -80,6 +82,8 @@ namespace {
 constexpr double kWarnThrottlePeriodS = 5.0;
 /// [m] Side of the seabed plate drawn under the vehicle: about the camera footprint at 3 m.
 constexpr double kSeabedMarkerSizeM = 3.0;
+/// Sonar hits drawn: the last ~30 s at the camera rate of 10 Hz.
+constexpr std::size_t kSonarHitsShown = 300;
 
 struct NodeSettings {
   std::string image_topic;
@@ -132,6 +136,7 @@ class EstimatorNode {
     keyframe_pub_ = nh.advertise<vims::Keyframe>("vio/keyframe", 20);
     tracked_image_pub_ = nh.advertise<sensor_msgs::Image>("vio/tracked_image", 2);
     seabed_pub_ = nh.advertise<visualization_msgs::Marker>("vio/seabed", 2);
+    sonar_hits_pub_ = nh.advertise<visualization_msgs::Marker>("vio/sonar_hits", 2);
     path_.header.frame_id = settings_.odom_frame_id;
     // Queues of the subscriptions: ~2 s of each sensor; the processing thread's own queue absorbs
     // the optimiser's latency.
@@ -327,6 +332,16 @@ class EstimatorNode {
                                 kSeabedMarkerSizeM, settings_.odom_frame_id, &seabed, &why)) {
       seabed_pub_.publish(seabed);
     }
+    if (r.sonar_hit) {
+      sonar_hits_.push_back(*r.sonar_hit);
+      if (sonar_hits_.size() > kSonarHitsShown) sonar_hits_.pop_front();
+    }
+    visualization_msgs::Marker hits;
+    if (r.sonar_hit && sonar_hits_pub_.getNumSubscribers() > 0 &&
+        vims::toPointsMarkerMsg(r.t_stamp, {sonar_hits_.begin(), sonar_hits_.end()}, 0.05, settings_.odom_frame_id,
+                                "sonar_hits", &hits, &why)) {
+      sonar_hits_pub_.publish(hits);
+    }
     // The path shows one VIO session: poses of different sessions live in unrelated odom frames.
     if (path_session_ != r.session) {
       if (!path_.poses.empty()) ROS_INFO_STREAM("VIO session " << r.session << ": the VIO path starts anew");
@@ -404,7 +419,9 @@ class EstimatorNode {
 
   vims::BoundedQueue<InputEvent> queue_;
   std::thread worker_;
-  ros::Publisher odometry_pub_, imu_odometry_pub_, path_pub_, keyframe_pub_, tracked_image_pub_, seabed_pub_;
+  ros::Publisher odometry_pub_, imu_odometry_pub_, path_pub_, keyframe_pub_, tracked_image_pub_, seabed_pub_,
+      sonar_hits_pub_;
+  std::deque<Eigen::Vector3d> sonar_hits_;  ///< the latest kSonarHitsShown beam hits (VIO frame)
   ros::Subscriber imu_sub_, image_sub_, sonar_sub_, pressure_sub_;
 };
 

@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 #include <string>
+#include <vector>
 
 namespace vims {
 
@@ -42,5 +43,11 @@ bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string
 /// (dh/dx, dh/dy) in the parent frame. False for non-finite input or an unusable time.
 bool toSeabedMarkerMsg(double t, const Eigen::Vector2d& body_xy, double seabed_z, const Eigen::Vector2d& slope,
                        double size_m, const std::string& frame, visualization_msgs::Marker* out, std::string* why);
+
+/// Points (e.g. the recent sonar hits on the seabed) as a POINTS marker of `size_m` squares.
+/// False (nothing to draw) when no point is finite or the time is unusable; non-finite points are
+/// skipped.
+bool toPointsMarkerMsg(double t, const std::vector<Eigen::Vector3d>& points, double size_m, const std::string& frame,
+                       const std::string& ns, visualization_msgs::Marker* out, std::string* why);
 
 }  // namespace vims
