@@ -328,6 +328,7 @@ bool SeabedTerrain::firstCrossing(const Eigen::Vector3d& origin, const Eigen::Ve
     const double value = g(t_guess);
     const double step = -value / (dz - (gx * dx + gy * dy));
     if (step * step < step_tolerance2 && t_guess + step > 0.0) return finish(t_guess + step);
+    t_guess += step;  // the search below starts from the better guess (it keeps it only inside the bracket)
   }
 
   // The surface lies between the planes P + below and P + above: they bracket the first hit.
