@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Terrain sweep (issue 17): VIO and global accuracy of each seabed model over slopes and roughness.
 
-For every scenario x slope x roughness: one simulated sequence (vims_sim --terrain-slope-deg S
---terrain-roughness-m R, rolling relief as the `slope4` preset, pressure sensor on), then
+For every scenario x slope x roughness: one simulated sequence (vims_sim --terrain-slope-deg S,
+roughness R as --terrain-roughness-m R up to 0.2 m and as rocks up to R tall above, rolling relief
+as the `slope4` preset, pressure sensor on), then
 vims_offline with the seabed model `horizontal` and `local_plane`, each with and without the
 pressure factor. Prints one row per run and writes WORK/terrain_sweep.md, .csv and an SVG plot of
 the VIO ATE against the slope (WORK/terrain_sweep.svg).
@@ -28,6 +29,14 @@ from bench_common import ROOT, eval_run, prepare_work_dir, tool_dir
 
 def config_text(model, pressure):
     return f"estimator:\n  seabed: {{model: {model}}}\n  pressure: {{enabled: {'true' if pressure else 'false'}}}\n"
+
+
+def roughness_flags(rough):
+    """vims_sim flags for a roughness level [m]: up to 0.2 m the rms height of the 1-5 m roughness
+    (the simulator's range); above, 0.1 m of roughness plus rocks up to `rough` tall (0.05 per m^2)."""
+    if rough <= 0.2:
+        return ["--terrain-roughness-m", str(rough)]
+    return ["--terrain-roughness-m", "0.1", "--terrain-rock-height-m", str(rough), "--terrain-rock-density", "0.05"]
 
 
 def run(cmd, log):
@@ -100,7 +109,7 @@ def main():
         if not os.path.exists(os.path.join(seq, os.path.basename(seq) + ".bag")):
             cmd = [os.path.join(bin_dir, "vims_sim"), "--scenario", scenario, "--duration", str(args.duration),
                    "--seed", str(args.seed), "--out", seq, "--terrain", "slope4", "--terrain-slope-deg", str(slope),
-                   "--terrain-roughness-m", str(rough), "--pressure", "--threads", "1"]
+                   "--pressure", "--threads", "1"] + roughness_flags(rough)
             if run(cmd, seq + "_sim.log") != 0:
                 sys.exit(f"terrain_sweep.py: vims_sim failed, see {seq}_sim.log")
         return seq
