@@ -49,8 +49,8 @@ std::string SonarDepthOptions::toYaml() const {
 
 namespace {
 /// The feature f_b = p_bc + lambda R_bc b in the body frame of its anchor, and the Jacobian
-/// columns of -(f_l)_z = -e_z^T R_k f_b that the sonar depth and seabed height residuals share
-/// (extrinsic, lambda, td); `up_in_b` = e_z^T R_k.
+/// columns of -n^T f_l = -n^T R_k f_b that the sonar depth and seabed height residuals share
+/// (extrinsic, lambda, td); `up_in_b` = n^T R_k (seabedNormalInBody; e_z^T R_k for a level seabed).
 Eigen::Vector3d featureInBody(const FeatureObservation& anchor, const Eigen::Isometry3d& T_b_c, double lambda,
                               double td, const Eigen::RowVector3d& up_in_b, SonarDepthJacobians* J) {
   const Eigen::Matrix3d R_bc = T_b_c.linear();
