@@ -9,7 +9,11 @@ outage (carry_seabed_through_outages: false). Prints one row per seed: the SE(3)
 and global.tum of each run [mm] and the ratios to the clean run, and writes WORK/sonar_outage.md.
 
     bench/sonar_outage.py --work /work/data/faults/outage [--seeds 11 12 13 14 15 16]
-                          [--duration 300] [--off 100:130] [--build _build] [--jobs 2]
+                          [--duration 300] [--off 100:130] [--scenario tank|field]
+                          [--sim-args "--terrain slope4 --pressure"] [--build _build] [--jobs 2]
+
+--sim-args adds vims_sim options to both sequences of a seed (terrain, pressure sensor, ...); with
+a pressure sensor the estimator's pressure factor holds the height through the outage.
 
 The fault test (test/fault_tolerance, fault_tolerance_sonar: seed 11, 300 s, off 100:130) is the
 first row of the default set. The other studies of docs/benchmarks.md, "Fault tolerance": the
@@ -18,6 +22,7 @@ outage early or late, and a 90 s outage (--seeds 21 22 --duration 180 --off 40:1
 """
 import argparse
 import os
+import shlex
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -45,12 +50,22 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[11, 12, 13, 14, 15, 16])
     ap.add_argument("--duration", type=float, default=300.0)
     ap.add_argument("--off", default="100:130", help="sonar outage BEGIN:END [s from the start]")
+    ap.add_argument("--scenario", default="tank", choices=["tank", "field"])
+    ap.add_argument("--sim-args", default="", help="further vims_sim options for both sequences of a seed")
     ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
 
     bin_dir = tool_dir(args.build)
     work = prepare_work_dir(args.work, "sonar_outage.py")
+    # The sequences are reused by later calls with the same folder: they must be of one setting.
+    setting_file = os.path.join(work, "setting.txt")
+    setting = f"--scenario {args.scenario} --duration {args.duration:g} --off {args.off} {args.sim_args}".strip()
+    if os.path.exists(setting_file) and open(setting_file).read().strip() != setting:
+        sys.exit(f"sonar_outage.py: {work} holds sequences of another setting ({open(setting_file).read().strip()}); "
+                 "use another --work")
+    with open(setting_file, "w") as f:
+        f.write(setting + "\n")
     vi_only = os.path.join(work, "vi_only.yaml")
     with open(vi_only, "w") as f:
         f.write(VI_ONLY_CONFIG)
@@ -59,8 +74,8 @@ def main():
         name = f"{'off' if faulty else 'clean'}_s{seed}"
         seq = os.path.join(work, name)
         if not os.path.exists(os.path.join(seq, name + ".bag")):
-            cmd = [os.path.join(bin_dir, "vims_sim"), "--scenario", "tank", "--duration", f"{args.duration:g}",
-                   "--seed", str(seed), "--lz4", "--out", seq]
+            cmd = [os.path.join(bin_dir, "vims_sim"), "--scenario", args.scenario, "--duration", f"{args.duration:g}",
+                   "--seed", str(seed), "--lz4", "--out", seq] + shlex.split(args.sim_args)
             if faulty:
                 cmd += ["--sonar-off", args.off]
             if run(cmd, seq + "_sim.log") != 0:
@@ -87,7 +102,8 @@ def main():
             jobs[(s, "vi")] = pool.submit(offline, sequences[(s, True)], "vi_only", vi_only)
         results = {k: v.result() for k, v in jobs.items()}
 
-    lines = [f"Sonar off {args.off} s in {args.duration:g} s tank sequences; SE(3) ATE [mm] and ratio to the clean run",
+    setting = f"{args.scenario} {args.sim_args}".strip()
+    lines = [f"Sonar off {args.off} s in {args.duration:g} s {setting} sequences; SE(3) ATE [mm] and ratio to the clean run",
              "",
              "| seed | clean VIO | clean global | held VIO | held global | VI-only VIO | VI-only global |",
              "| --- | --- | --- | --- | --- | --- | --- |"]

@@ -12,6 +12,10 @@ the VIO ATE against the slope (WORK/terrain_sweep.svg).
                            [--roughness 0 0.1 0.3] [--duration 300] [--seed 1] [--build _build] [--jobs 2]
                            [--models horizontal local_plane] [--pressure on off]
 
+Sequences and finished runs already in WORK are reused, so a sweep can be extended (more slopes,
+another model) or resumed after an interruption without recomputing them; delete WORK to start
+afresh after a code change.
+
 Figures: VIO and global translation ATE (SE3) in % of the distance, VIO rotation RMSE and tilt
 error (deg, after a yaw-only alignment), wrong loops. docs/benchmarks.md, "Terrain", holds the
 measured tables and the command of each.
@@ -129,7 +133,8 @@ def main():
         cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", seq, "--out", out, "--config", cfg, "--quiet"]
         if args.vio_only:
             cmd.append("--vio-only")
-        if run(cmd, out + ".log") != 0:
+        # A finished run of an earlier call (its summary is written last) is reused.
+        if not os.path.exists(os.path.join(out, "summary.yaml")) and run(cmd, out + ".log") != 0:
             sys.exit(f"terrain_sweep.py: vims_offline failed, see {out}.log")
         figures = eval_run(bin_dir, seq, out)
         scenario, slope, rough = world

@@ -137,7 +137,23 @@ struct SeabedTies {
   const SonarDepthOptions* options = nullptr;
   const SeabedFix* carried = nullptr;  ///< the last measured seabed, null before the first range
   bool sloped = false;  ///< local_plane: the sonar factor uses the anchor's seabed gradient block
+  /// Features tied to the carried plane in this solve (carriedFeatureCount). Its error (one
+  /// ping, extrapolated over metres of a seabed that is only locally a plane) is common to all of
+  /// them, so each factor's variance is scaled by this count: together they weigh as the one
+  /// measurement they share, not as that many independent ones.
+  int carried_features = 1;
 };
+
+/// Whether `feature` would be tied to the carried seabed (its anchor has no range, a fix exists
+/// within carry_max_distance_m): the count that SeabedTies::carried_features wants.
+template <typename FrameT, typename FeatureT>
+bool tiedToCarriedSeabed(const FeatureT& feature, const SeabedTies& seabed) {
+  if (!seabed.use_sonar || !feature.sonar_ok || !feature.has_depth || seabed.carried == nullptr) return false;
+  const FrameT* a = feature.anchor;
+  if (a->sonar_range || !seabed.options->carry_seabed_through_outages) return false;
+  const Eigen::Vector2d xy(a->pose[0], a->pose[1]);
+  return (xy - seabed.carried->xy).norm() <= seabed.options->carry_max_distance_m;
+}
 
 /// Reprojection and sonar residual blocks of one feature at the current estimate.
 template <typename FrameT, typename FeatureT>
@@ -199,7 +215,7 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
   if (apply_gate && !seabedHeightGate(anchor, plane, T_l_bi, T_bc, feature.lambda[0], td[0], sigma, options).consistent)
     return;
   ResidualSpec spec;
-  spec.cost = new SeabedHeightFactor(anchor, plane, sigma);
+  spec.cost = new SeabedHeightFactor(anchor, plane, sigma * std::sqrt(std::max(1, seabed.carried_features)));
   spec.sonar = true;
   spec.blocks = {a->pose, T_b_c, feature.lambda, td};
   out->push_back(spec);

@@ -95,12 +95,16 @@ void VioEstimator::optimize(VioFrameResult* result) {
   const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
       sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
-  const SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                          seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
+  SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
+                    seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
+  seabed.carried_features = carriedFeatureCount(seabed);
   std::vector<ResidualSpec> specs;
+  int n_gated = 0;
   for (auto& [id, feature] : features_) {
     specs.clear();
+    const bool was_on_seabed = feature.sonar_ok;
     featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, true, &specs);
+    if (was_on_seabed && !feature.sonar_ok) ++n_gated;
     if (specs.empty()) continue;
     problem.AddParameterBlock(feature.lambda, 1);
     problem.SetParameterLowerBound(feature.lambda, 0, options_.min_feature_depth_m);
@@ -112,6 +116,13 @@ void VioEstimator::optimize(VioFrameResult* result) {
     }
   }
   if (n_features == 0 && options_.estimate_td && td_observable) problem.SetParameterBlockConstant(td_);  // no visual factor
+  if (n_gated > 0) {
+    logger_->warnThrottled(kComponent, "seabed_gate", frames_.back()->t_stamp, 30.0,
+                           VIMS_STR(n_gated << " feature(s) off the seabed plane through their anchor's sonar hit (a rock "
+                                               "or a fish under the beam, a rock or a structure in view): their sonar "
+                                               "factors are dropped, vision holds them; further cases within 30 s are "
+                                               "counted, not logged"));
+  }
 
   ceres::Solver::Summary summary;
   ceres::Solve(windowSolverOptions(options_, ceres::DENSE_SCHUR), &problem, &summary);
@@ -181,6 +192,12 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
   result->sonar_factors = 0;
 }
 
+
+int VioEstimator::carriedFeatureCount(const SeabedTies& seabed) const {
+  int n = 0;
+  for (const auto& [id, feature] : features_) n += tiedToCarriedSeabed<Frame>(feature, seabed) ? 1 : 0;
+  return n;
+}
 
 void VioEstimator::fillMissingSonarRanges() {
   if (!options_.use_sonar) return;

@@ -146,6 +146,7 @@ void SimOptions::validate() const {
   requireInRange("--terrain-rock-height-m", terrain.rock_height_m, 0.0, 0.4, "m");
   requireInRange("--terrain-rock-density", terrain.rock_density, 0.0, 0.1, "per m^2");
   requireInRange("--depth-hold", depth_hold_z, 1.0, 100.0, "m");
+  requireInRange("--sonar-max-range", sonar_max_range, 1.0, 100.0, "m");
 
   requireInRange("--pressure-rate-hz", pressure.rate_hz, 1.0, 50.0, "Hz");
   requireInRange("--pressure-atmospheric-error-pa", pressure.atmospheric_error_pa, -2.0e4, 2.0e4, "Pa");
@@ -177,6 +178,11 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     if (flag == "--altitude-hold") {
       if (options.depth_hold_z) throw argError(flag, "conflicts with --depth-hold");
       altitude_hold = true;
+      continue;
+    }
+    if (flag == "--hold-plane-only") {
+      if (options.depth_hold_z) throw argError(flag, "conflicts with --depth-hold");
+      options.hold_plane_only = true;
       continue;
     }
     if (flag.rfind("--", 0) != 0) throw argError(flag, "unexpected argument (options start with --; see --help)");
@@ -235,7 +241,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.terrain.rock_density = parseDouble(flag, value);
     } else if (flag == "--depth-hold") {
       if (altitude_hold) throw argError(flag, "conflicts with --altitude-hold");
+      if (options.hold_plane_only) throw argError(flag, "conflicts with --hold-plane-only");
       options.depth_hold_z = parseDouble(flag, value);
+    } else if (flag == "--sonar-max-range") {
+      options.sonar_max_range = parseDouble(flag, value);
     } else if (flag == "--pressure-rate-hz") {
       options.pressure.rate_hz = parseDouble(flag, value);
     } else if (flag == "--pressure-atmospheric-error-pa") {
@@ -282,6 +291,8 @@ Options:
   --camera-off A:B         no image messages in [A, B) (repeatable)
   --sonar-off A:B          no sonar messages in [A, B) (repeatable)
   --mag-off A:B            no magnetometer messages in [A, B) (repeatable)
+  --sonar-max-range M      the sonar's range limit, 1-100 m (default 50): a seabed farther away
+                           gives no echo (+inf), as over a drop-off
   --imu-gap A:B            no IMU messages in [A, B) (repeatable)
   --pressure-off A:B       no pressure messages in [A, B) (repeatable; needs --pressure)
   --start-time T           bag-clock time of the sequence start (default 1700000000.0)
@@ -302,6 +313,8 @@ Seabed (default: flat, z = 0; a preset, then any term overridden):
   --terrain-rock-height-m M          tallest rock, 0-0.4 (rocks are 0.5-1 x this)
   --terrain-rock-density N           rocks per m^2, 0-0.1
   --altitude-hold          fly the altitude profile above the large-scale seabed (default)
+  --hold-plane-only        altitude hold above the seabed's plane only: the rolling relief passes
+                           under the vehicle unfollowed (its altitude then varies by the relief)
   --depth-hold Z           hold the body at world height Z [m] instead (the seabed's mean is z = 0;
                            an error if the altitude falls below 1 m anywhere)
 

@@ -142,11 +142,13 @@ SimSetup buildSimSetup(const SimOptions& options) {
   trajectory_params.margin = 5.0 + std::abs(options.camera_delay);
   trajectory_params.terrain = resolveTerrain(options.terrain, options.worldSeed());
   trajectory_params.depth_hold_z = options.depth_hold_z;
+  trajectory_params.hold_plane_only = options.hold_plane_only;
   setup.trajectory = Trajectory::design(trajectory_params);
   setup.terrain = std::make_shared<const SeabedTerrain>(trajectory_params.terrain);
 
   setup.imu = ImuNoiseParams::mti630();
   setup.sonar = SonarParams();
+  if (options.sonar_max_range) setup.sonar.max_range = *options.sonar_max_range;
   setup.magnetometer = MagnetometerParams();
 
   // --- The rig: calibrated once per vehicle set-up, so it follows the trajectory seed.
@@ -233,6 +235,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
   truth.dropouts = options.spans;
   truth.terrain = setup.terrain->params();
   truth.depth_hold_z = options.depth_hold_z;
+  truth.hold_plane_only = options.hold_plane_only;
   if (cfg.pressure) {
     PressureTruth pressure;
     // Water depth above the mean seabed: about 10 m in the tank, 30 m at the field site.

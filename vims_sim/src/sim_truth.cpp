@@ -221,6 +221,7 @@ std::string SimTruth::toYaml() const {
        << "  spike_max_pa: " << num(pressure->spike_max_pa) << "\n";
   }
   if (depth_hold_z) os << "depth_hold_z: " << num(*depth_hold_z) << "  # [m] the body held this world z (depth hold)\n";
+  if (hold_plane_only) os << "hold_plane_only: true  # the altitude hold followed the seabed's plane, not its relief\n";
   return os.str();
 }
 
@@ -235,7 +236,8 @@ SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
   root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
                           "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
-                          "dropouts", "terrain", "pressure", "depth_hold_z"});
+                          "dropouts", "terrain", "pressure", "depth_hold_z",
+                          "hold_plane_only"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -295,6 +297,7 @@ SimTruth SimTruth::load(const std::string& path) {
   if (root.has("terrain")) t.terrain = readTerrain(root);  // absent: the flat seabed of older files
   if (root.has("pressure")) t.pressure = readPressure(root);
   if (root.has("depth_hold_z")) t.depth_hold_z = root.get<double>("depth_hold_z");
+  if (root.has("hold_plane_only")) t.hold_plane_only = root.get<bool>("hold_plane_only");
   return t;
 }
 

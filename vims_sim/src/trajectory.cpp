@@ -250,7 +250,9 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
       return *params.depth_hold_z;
     }
     Eigen::Vector2d ground_gradient;
-    const double ground = terrain.largeScale(pt.position.x(), pt.position.y(), &ground_gradient);
+    const double ground = params.hold_plane_only
+                              ? terrain.planeHeight(pt.position.x(), pt.position.y(), &ground_gradient)
+                              : terrain.largeScale(pt.position.x(), pt.position.y(), &ground_gradient);
     *climb_slope = altitudeSlope(s) + ground_gradient.dot(Eigen::Vector2d(std::cos(pt.heading), std::sin(pt.heading)));
     return ground + altitude(s);
   };

@@ -290,6 +290,18 @@ TEST(SimCommandLine, TerrainPresetsAndOverrides) {
   EXPECT_GE(a.slope_azimuth_deg, 0.0);
   EXPECT_LT(a.slope_azimuth_deg, 360.0);
   EXPECT_TRUE(parseSimCommandLine(withBase({"--terrain", "hills", "--altitude-hold"})).has_value());
+  EXPECT_FALSE(defaults->hold_plane_only);
+  EXPECT_FALSE(defaults->sonar_max_range.has_value());
+  const auto plane_only = parseSimCommandLine(withBase({"--terrain", "slope4", "--hold-plane-only", "--sonar-max-range", "4.2"}));
+  ASSERT_TRUE(plane_only.has_value());
+  EXPECT_TRUE(plane_only->hold_plane_only);
+  EXPECT_EQ(*plane_only->sonar_max_range, 4.2);
+  // The range limit is the YAML's max_range; the plane-only hold is a truth key.
+  const SimSetup setup = buildSimSetup(*plane_only);
+  EXPECT_EQ(setup.config.sonar.max_range, 4.2);
+  EXPECT_TRUE(setup.truth.hold_plane_only);
+  EXPECT_NE(setup.truth.toYaml().find("hold_plane_only: true"), std::string::npos);
+  EXPECT_EQ(buildSimSetup(*defaults).truth.toYaml().find("hold_plane_only"), std::string::npos);
 }
 
 TEST(SimCommandLine, TerrainAndPressureErrorsNameTheFlag) {
@@ -310,6 +322,10 @@ TEST(SimCommandLine, TerrainAndPressureErrorsNameTheFlag) {
   expectError({"--depth-hold", "0.5"}, "--depth-hold");
   expectError({"--depth-hold", "4", "--altitude-hold"}, "--altitude-hold");
   expectError({"--altitude-hold", "--depth-hold", "4"}, "--depth-hold");
+  expectError({"--depth-hold", "4", "--hold-plane-only"}, "--hold-plane-only");
+  expectError({"--hold-plane-only", "--depth-hold", "4"}, "--depth-hold");
+  expectError({"--sonar-max-range", "0.5"}, "--sonar-max-range");
+  expectError({"--sonar-max-range", "200"}, "--sonar-max-range");
   expectError({"--pressure-rate-hz", "20"}, "--pressure-rate-hz");  // without --pressure
   expectError({"--pressure-spikes", "0.1"}, "--pressure-spikes");
   expectError({"--pressure-atmospheric-error-pa", "100"}, "--pressure-atmospheric-error-pa");
@@ -337,6 +353,7 @@ TEST(SimTruth, TerrainAndPressureRoundTripAndRebuildTheSeabed) {
   options.out_dir = "/tmp/x/terrain";
   options.terrain.preset = "rough";
   options.depth_hold_z = 4.25;
+  options.hold_plane_only = true;  // not a combination the command line allows, but every key round-trips
   options.pressure.enabled = true;
   options.pressure.atmospheric_error_pa = 250.0;
   options.pressure.spike_fraction = 0.02;
@@ -353,6 +370,7 @@ TEST(SimTruth, TerrainAndPressureRoundTripAndRebuildTheSeabed) {
   EXPECT_EQ(loaded.terrain.rock_density, 0.05);
   ASSERT_TRUE(loaded.depth_hold_z.has_value());
   EXPECT_EQ(*loaded.depth_hold_z, 4.25);
+  EXPECT_TRUE(loaded.hold_plane_only);
   ASSERT_TRUE(loaded.pressure.has_value());
   EXPECT_EQ(loaded.pressure->water.surface_z, truth.pressure->water.surface_z);
   EXPECT_GE(loaded.pressure->water.surface_z, 9.0);

@@ -305,6 +305,35 @@ TEST(Trajectory, AltitudeHoldFollowsTheLargeScaleSeabed) {
   EXPECT_LT(rotation_error, 1e-5);
 }
 
+// --hold-plane-only: the designed height follows the plane, so the altitude above the plane is
+// the profile, and against the default altitude hold of the same seed the vehicle flies lower by
+// exactly the relief under it (to the spline's smoothing): the relief passes under it unfollowed.
+TEST(Trajectory, HoldPlaneOnlyLeavesTheReliefUnfollowed) {
+  TrajectoryParams p = terrainTrajectoryParams(Scenario::kField, 600.0, 4, hillyTerrain(4.0));
+  const Trajectory follows = Trajectory::design(p);
+  p.hold_plane_only = true;
+  const Trajectory traj = Trajectory::design(p);
+  const SeabedTerrain terrain(p.terrain);
+  double min_plane = 1e9, max_plane = -1e9, max_relief = 0.0, max_difference_error = 0.0;
+  for (double t = 0.0; t < 600.0; t += 0.1) {
+    const Eigen::Vector3d x = traj.sample(t).p_w_b;
+    const double above_plane = x.z() - terrain.planeHeight(x.x(), x.y());
+    min_plane = std::min(min_plane, above_plane);
+    max_plane = std::max(max_plane, above_plane);
+    const double relief = terrain.largeScale(x.x(), x.y()) - terrain.planeHeight(x.x(), x.y());
+    max_relief = std::max(max_relief, std::abs(relief));
+    ASSERT_LT((follows.sample(t).p_w_b.head<2>() - x.head<2>()).norm(), 1e-9) << t;  // the same path
+    max_difference_error = std::max(max_difference_error, std::abs(follows.sample(t).p_w_b.z() - x.z() - relief));
+  }
+  EXPECT_GT(min_plane, 1.9);  // the profile's range (2.1-4.9 m) above the plane
+  EXPECT_LT(max_plane, 5.1);
+  EXPECT_GT(max_relief, 0.5);  // hillyTerrain's 1 m relief passes under the vehicle
+  EXPECT_LT(max_difference_error, 0.05) << "the default hold follows the relief, the plane-only hold does not";
+  double rotation_error = 0.0;
+  EXPECT_LT(imuIntegrationDrift(traj, 200.0, 260.0, &rotation_error), 0.01);
+  EXPECT_LT(rotation_error, 1e-5);
+}
+
 TEST(Trajectory, DepthHoldKeepsAConstantHeight) {
   TrajectoryParams p = terrainTrajectoryParams(Scenario::kTank, 300.0, 6, hillyTerrain(4.0));
   p.depth_hold_z = 4.5;

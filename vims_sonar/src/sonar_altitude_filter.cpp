@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 
 namespace vims {
@@ -191,6 +192,15 @@ void SonarAltitudeFilter::feedLocked(const SonarRange& sample, bool valid, std::
     return;
   }
   if (std::abs(sample.range - line.at(sample.t)) > gate(line, sample.t)) {
+    // Too long: multipath; too short: something between the sonar and the seabed (a fish, a rock
+    // taller than the gate). Either way the seabed's trend is kept.
+    logger_->warnThrottled(kComponent, "outlier", sample.t, 10.0,
+                           VIMS_STR("range " << std::fixed << std::setprecision(2) << sample.range
+                                             << " m rejected as an outlier, the seabed's trend is at "
+                                             << line.at(sample.t) << " m ("
+                                             << (sample.range < line.at(sample.t) ? "a fish or a rock under the beam?"
+                                                                                  : "multipath?")
+                                             << "); further outliers within 10 s are counted, not logged"));
     r.status = SonarStatus::kOutlier;
     emit(r, false, results);
     return;

@@ -204,6 +204,26 @@ TEST(SonarAltitudeFilter, RecoversFromASustainedStepAfterMaxGap) {
   EXPECT_EQ(filter.stats().resets, 1);
 }
 
+// A fish swims through the beam: three short returns at 1.2 m over a 3.5 m seabed are outliers,
+// said once in the log, and the filtered range stays on the seabed.
+TEST(SonarAltitudeFilter, AFishUnderTheBeamIsAnOutlierWithAWarning) {
+  CapturedLog log;
+  SonarAltitudeFilter filter(SonarFilterOptions{}, calibration(), log.logger());
+  std::vector<SonarFilterResult> results;
+  for (int k = 0; k < 30; ++k) filter.feed({0.1 * k, 3.5}, &results);
+  ASSERT_TRUE(filter.locked());
+  results.clear();
+  for (int k = 30; k < 33; ++k) filter.feed({0.1 * k, 1.2}, &results);
+  for (int k = 33; k < 40; ++k) filter.feed({0.1 * k, 3.5}, &results);
+  ASSERT_EQ(results.size(), 10u);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(results[k].status, SonarStatus::kOutlier) << k;
+  for (const auto& r : results) EXPECT_NEAR(r.filtered, 3.5, 1e-9);
+  EXPECT_TRUE(results.back().accepted);
+  int said = 0;
+  for (const auto& w : log.warnings) said += w.find("a fish or a rock under the beam") != std::string::npos;
+  EXPECT_EQ(said, 1);  // throttled: one line for the three
+}
+
 TEST(SonarAltitudeFilter, ClockGoingBackwardsResetsWithAWarning) {
   CapturedLog log;
   SonarAltitudeFilter filter(SonarFilterOptions{}, calibration(), log.logger());

@@ -38,6 +38,9 @@ class LossFunction;
 #include "vims_tracking/feature_tracker.h"
 
 namespace vims {
+namespace vio_window {
+struct SeabedTies;
+}  // namespace vio_window
 
 /// What the estimator did with a frame.
 enum class VioStatus {
@@ -183,6 +186,8 @@ class VioEstimator {
   std::optional<SeabedFix> seabed_fix_;
   /// Refreshes seabed_fix_ from the newest window frame with a sonar range (current estimate).
   void updateSeabedFix();
+  /// Features the solve ties to the carried seabed (they share its error: vio_window.h).
+  int carriedFeatureCount(const vio_window::SeabedTies& seabed) const;
 
   std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results

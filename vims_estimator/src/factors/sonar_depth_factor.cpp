@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
@@ -143,40 +144,42 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
   return gate(seabedHeightResidual(anchor, plane, T_l_bk, T_b_c, lambda, td), sigma, options);
 }
 
-SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
-                                   double sigma)
-    : anchor_(anchor), range_(range), T_b_s_(T_b_s), inv_sigma_(1.0 / sigma) {
-  if (!(std::isfinite(range) && range > 0.0)) throw std::invalid_argument("SonarDepthFactor: range must be > 0");
-  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SonarDepthFactor: sigma must be > 0");
+SonarHitMeasurement::SonarHitMeasurement(const char* factor, const FeatureObservation& anchor_observation,
+                                         double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma)
+    : anchor(anchor_observation), range(range_m), T_b_s(sonar_extrinsic), inv_sigma(1.0 / sigma) {
+  if (!(std::isfinite(range_m) && range_m > 0.0)) throw std::invalid_argument(std::string(factor) + ": range must be > 0");
+  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument(std::string(factor) + ": sigma must be > 0");
 }
 
-bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool SonarHitMeasurement::evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
+                                   double** jacobians) const {
   SonarDepthJacobians J;
-  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, poseBlockToIsometry(parameters[0]),
+  const double r = sonarDepthResidual(anchor, range, T_b_s, poseBlockToIsometry(parameters[0]),
                                       poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
-                                      jacobians ? &J : nullptr);
-  return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);
+                                      jacobians ? &J : nullptr, slope ? *slope : Eigen::Vector2d::Zero());
+  if (!writeWhitened(r, J, inv_sigma, parameters, residuals, jacobians)) return false;
+  if (slope && jacobians && jacobians[4]) {
+    jacobians[4][0] = inv_sigma * J.d_slope(0);
+    jacobians[4][1] = inv_sigma * J.d_slope(1);
+  }
+  return true;
+}
+
+SonarDepthFactor::SonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                                   double sigma)
+    : hit_("SonarDepthFactor", anchor, range, T_b_s, sigma) {}
+
+bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  return hit_.evaluate(parameters, nullptr, residuals, jacobians);
 }
 
 SlopedSonarDepthFactor::SlopedSonarDepthFactor(const FeatureObservation& anchor, double range,
                                                const Eigen::Isometry3d& T_b_s, double sigma)
-    : anchor_(anchor), range_(range), T_b_s_(T_b_s), inv_sigma_(1.0 / sigma) {
-  if (!(std::isfinite(range) && range > 0.0)) throw std::invalid_argument("SlopedSonarDepthFactor: range must be > 0");
-  if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument("SlopedSonarDepthFactor: sigma must be > 0");
-}
+    : hit_("SlopedSonarDepthFactor", anchor, range, T_b_s, sigma) {}
 
 bool SlopedSonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  SonarDepthJacobians J;
   const Eigen::Vector2d slope(parameters[4][0], parameters[4][1]);
-  const double r = sonarDepthResidual(anchor_, range_, T_b_s_, poseBlockToIsometry(parameters[0]),
-                                      poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
-                                      jacobians ? &J : nullptr, slope);
-  if (!writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians)) return false;
-  if (jacobians && jacobians[4]) {
-    jacobians[4][0] = inv_sigma_ * J.d_slope(0);
-    jacobians[4][1] = inv_sigma_ * J.d_slope(1);
-  }
-  return true;
+  return hit_.evaluate(parameters, &slope, residuals, jacobians);
 }
 
 SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, const SeabedPlane& plane, double sigma)

@@ -55,7 +55,11 @@ struct SimOptions {
   int render_threads = 0;               ///< 0: one per hardware thread
   TerrainOptions terrain;               ///< default: the flat seabed z = 0
   std::optional<double> depth_hold_z;   ///< [m] constant body z; unset: altitude hold
+  bool hold_plane_only = false;         ///< --hold-plane-only: altitude hold ignores the rolling relief
   PressureOptions pressure;
+  /// [m] the sonar's range limit (the YAML's max_range); a seabed beyond it gives no echo (+inf),
+  /// as over a drop-off or when the vehicle climbs off the bottom. Unset: the default sonar's.
+  std::optional<double> sonar_max_range;
 
   uint64_t worldSeed() const { return world_seed ? *world_seed : seed; }
   /// `name`, or the basename of out_dir when empty.

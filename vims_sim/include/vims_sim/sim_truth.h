@@ -79,6 +79,7 @@ struct SimTruth {
   TerrainParams terrain;                ///< the seabed (flat unless the sequence had terrain)
   std::optional<PressureTruth> pressure;  ///< set when the sequence has a pressure sensor
   std::optional<double> depth_hold_z;   ///< [m] set when the vehicle held a constant z instead of its altitude
+  bool hold_plane_only = false;         ///< the altitude hold followed the seabed's plane, not its relief
 
   /// YAML text (numbers with round-trip precision).
   std::string toYaml() const;

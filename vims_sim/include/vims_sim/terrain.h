@@ -118,7 +118,11 @@ class SeabedTerrain {
   /// h - plane(x, y) always lies in [belowPlane(), abovePlane()].
   double belowPlane() const { return below_plane_; }
   double abovePlane() const { return above_plane_; }
-  double planeHeight(double x, double y) const { return plane_gx_ * x + plane_gy_ * y; }
+  /// The plane alone (height and, if asked, its gradient).
+  double planeHeight(double x, double y, Eigen::Vector2d* gradient = nullptr) const {
+    if (gradient) *gradient = Eigen::Vector2d(plane_gx_, plane_gy_);
+    return plane_gx_ * x + plane_gy_ * y;
+  }
 
   /// First crossing of origin + t * direction with the seabed for t in (0, t_max], from above.
   /// `t_guess` (if > 0) starts the Newton iteration, e.g. the neighbouring pixel's hit. Returns

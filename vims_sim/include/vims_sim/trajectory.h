@@ -65,6 +65,10 @@ struct TrajectoryParams {
   /// Depth hold instead: the body stays at this constant world z [m] (the altitude then
   /// changes with the seabed).
   std::optional<double> depth_hold_z;
+  /// Altitude hold follows the seabed's plane only, not its rolling relief (a slow altitude
+  /// controller, or a vehicle told to keep its depth profile over small hills): the relief then
+  /// changes the altitude, as depth hold does, while the vehicle still climbs with the slope.
+  bool hold_plane_only = false;
 };
 
 class Trajectory {

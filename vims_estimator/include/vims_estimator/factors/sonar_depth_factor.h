@@ -149,6 +149,23 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
                                  const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                  double td, double sigma, const SonarDepthOptions& options);
 
+/// What a sonar depth factor measures, shared by the level and the sloped factor: the anchor
+/// observation, the filtered range d[k], the sonar extrinsic and 1/sigma. Throws
+/// std::invalid_argument (naming `factor`) if range is not finite and > 0 or sigma is not > 0.
+struct SonarHitMeasurement {
+  SonarHitMeasurement(const char* factor, const FeatureObservation& anchor, double range,
+                      const Eigen::Isometry3d& T_b_s, double sigma);
+  /// Writes r / sigma and the whitened Jacobians of blocks [pose_k, T_b_c, lambda, td] (and of
+  /// the gradient, block 4, when `slope` is given).
+  bool evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
+                double** jacobians) const;
+
+  FeatureObservation anchor;
+  double range;
+  Eigen::Isometry3d T_b_s;
+  double inv_sigma;
+};
+
 /// Ceres wrapper: parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1)]; returns r / sigma.
 class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
  public:
@@ -160,10 +177,7 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
-  FeatureObservation anchor_;
-  double range_;
-  Eigen::Isometry3d T_b_s_;
-  double inv_sigma_;
+  SonarHitMeasurement hit_;
 };
 
 /// The sonar depth factor on a local seabed plane whose gradient is a state (seabed model
@@ -177,10 +191,7 @@ class SlopedSonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1, 2>
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
-  FeatureObservation anchor_;
-  double range_;
-  Eigen::Isometry3d T_b_s_;
-  double inv_sigma_;
+  SonarHitMeasurement hit_;
 };
 
 /// Ceres wrapper of the seabed height residual: parameter blocks [pose_k (7), T_b_c (7),
