@@ -11,6 +11,7 @@ the VIO ATE against the slope (WORK/terrain_sweep.svg).
     bench/terrain_sweep.py --work /work/data/terrain [--scenarios tank field] [--slopes 0 2 4 8]
                            [--roughness 0 0.1 0.3] [--duration 300] [--seed 1] [--build _build] [--jobs 2]
                            [--models horizontal local_plane] [--pressure on off]
+                           [--runs horizontal:on local_plane:on local_plane:off]
 
 Sequences and finished runs already in WORK are reused, so a sweep can be extended (more slopes,
 another model) or resumed after an interruption without recomputing them; delete WORK to start
@@ -98,10 +99,22 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--models", nargs="+", default=["horizontal", "local_plane"])
     ap.add_argument("--pressure", nargs="+", default=["off", "on"], choices=["on", "off"])
+    ap.add_argument("--runs", nargs="+", metavar="MODEL:PRESSURE",
+                    help="the model/pressure pairs to run (e.g. horizontal:on local_plane:on local_plane:off) "
+                         "instead of every --models x --pressure pair")
     ap.add_argument("--vio-only", action="store_true", help="no pose graph (VIO figures only, faster)")
     ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
+    if args.runs:
+        pairs = [tuple(r.split(":", 1)) for r in args.runs]
+        bad = [r for r, pair in zip(args.runs, pairs)
+               if len(pair) != 2 or pair[0] not in ("horizontal", "local_plane") or pair[1] not in ("on", "off")]
+        if bad:
+            sys.exit(f"terrain_sweep.py: --runs takes MODEL:PRESSURE with MODEL horizontal|local_plane and "
+                     f"PRESSURE on|off, got {' '.join(bad or args.runs)}")
+    else:
+        pairs = [(model, p) for model in args.models for p in args.pressure]
     work = prepare_work_dir(args.work, "terrain_sweep.py")
     bin_dir = tool_dir(args.build)
 
@@ -121,7 +134,7 @@ def main():
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         sequences = dict(zip(worlds, pool.map(simulate, worlds)))
 
-    jobs = [(w, model, p) for w in worlds for model in args.models for p in args.pressure]
+    jobs = [(w, model, p) for w in worlds for model, p in pairs]
 
     def estimate(job):
         world, model, pressure = job
