@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 
@@ -12,6 +13,7 @@
 #include "vims_magnetometer/signature_csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
 #include "vims_ros/sequence_bag_reader.h"
+#include "vims_sim/sensor_models.h"
 #include "vims_sim/sim_truth.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
@@ -45,13 +47,6 @@ std::optional<Eigen::Isometry3d> truthAt(const std::vector<StampedPose>& gt, dou
   return T;
 }
 
-/// Slant range from the sonar along its +z axis to the flat seabed z = 0 (+inf if it misses).
-double trueSlantRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s) {
-  const Eigen::Isometry3d T_w_s = T_w_b * T_b_s;
-  const double dz = T_w_s.linear().col(2).z();
-  if (dz > -1e-9) return std::numeric_limits<double>::infinity();
-  return -T_w_s.translation().z() / dz;
-}
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -70,6 +65,9 @@ struct Sequence {
   SequencePaths paths;
   SequenceConfig config;
   std::vector<StampedPose> gt;
+  /// The seabed of a simulated sequence (from <seq>_truth.yaml; the flat z = 0 without one), so
+  /// that the true slant range is the range to the terrain the simulator drew.
+  std::shared_ptr<const sim::SeabedTerrain> seabed;
 };
 
 Sequence loadSequence(const std::string& dir, LoggerPtr logger) {
@@ -80,6 +78,8 @@ Sequence loadSequence(const std::string& dir, LoggerPtr logger) {
   for (const auto& key : unknown) logger->warn(kComponent, s.paths.yaml + ": key '" + key + "' is not in the contract");
   if (s.paths.gt.empty()) throw std::runtime_error("sequence '" + dir + "' has no ground truth (<seq>_gt.tum)");
   s.gt = readTumFile(s.paths.gt);
+  s.seabed = std::make_shared<const sim::SeabedTerrain>(
+      s.paths.truth.empty() ? sim::SeabedTerrain() : sim::terrainFromTruth(sim::SimTruth::load(s.paths.truth)));
   return s;
 }
 
@@ -133,7 +133,8 @@ SonarEvaluation evaluateSonar(const std::string& sequence_dir, const SonarFilter
       ++ev.no_truth;
       continue;
     }
-    const double truth = trueSlantRange(*T_w_b, seq.config.sonar.T_b_s);
+    const double truth = sim::SonarSimulator::trueRange(*T_w_b, seq.config.sonar.T_b_s, *seq.seabed,
+                                                        seq.config.sonar.max_range);
     if (std::abs(r.raw - truth) > kOutlierSigma * sigma) {
       ++ev.outliers;
       if (!r.accepted) ++ev.outliers_rejected;
