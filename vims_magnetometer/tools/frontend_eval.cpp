@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <memory>
 #include <optional>
 #include <stdexcept>
 
@@ -47,7 +46,6 @@ std::optional<Eigen::Isometry3d> truthAt(const std::vector<StampedPose>& gt, dou
   return T;
 }
 
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::sort(v.begin(), v.end());
@@ -65,9 +63,6 @@ struct Sequence {
   SequencePaths paths;
   SequenceConfig config;
   std::vector<StampedPose> gt;
-  /// The seabed of a simulated sequence (from <seq>_truth.yaml; the flat z = 0 without one), so
-  /// that the true slant range is the range to the terrain the simulator drew.
-  std::shared_ptr<const sim::SeabedTerrain> seabed;
 };
 
 Sequence loadSequence(const std::string& dir, LoggerPtr logger) {
@@ -78,8 +73,6 @@ Sequence loadSequence(const std::string& dir, LoggerPtr logger) {
   for (const auto& key : unknown) logger->warn(kComponent, s.paths.yaml + ": key '" + key + "' is not in the contract");
   if (s.paths.gt.empty()) throw std::runtime_error("sequence '" + dir + "' has no ground truth (<seq>_gt.tum)");
   s.gt = readTumFile(s.paths.gt);
-  s.seabed = std::make_shared<const sim::SeabedTerrain>(
-      s.paths.truth.empty() ? sim::SeabedTerrain() : sim::terrainFromTruth(sim::SimTruth::load(s.paths.truth)));
   return s;
 }
 
@@ -105,6 +98,10 @@ SonarEvaluation evaluateSonar(const std::string& sequence_dir, const SonarFilter
                               const std::string& csv_path) {
   if (!logger) logger = Logger::nullLogger();
   const Sequence seq = loadSequence(sequence_dir, logger);
+  // The true slant range is to the seabed the simulator drew (its terrain, from <seq>_truth.yaml),
+  // or to the flat z = 0 for a sequence without a truth file.
+  const sim::SeabedTerrain seabed =
+      seq.paths.truth.empty() ? sim::SeabedTerrain() : sim::terrainFromTruth(sim::SimTruth::load(seq.paths.truth));
   SonarAltitudeFilter filter(options, seq.config.sonar, logger);
   std::vector<SonarFilterResult> results;
   SequenceBagReader reader(seq.paths.bag, seq.config);
@@ -133,8 +130,8 @@ SonarEvaluation evaluateSonar(const std::string& sequence_dir, const SonarFilter
       ++ev.no_truth;
       continue;
     }
-    const double truth = sim::SonarSimulator::trueRange(*T_w_b, seq.config.sonar.T_b_s, *seq.seabed,
-                                                        seq.config.sonar.max_range);
+    const double truth =
+        sim::SonarSimulator::trueRange(*T_w_b, seq.config.sonar.T_b_s, seabed, seq.config.sonar.max_range);
     if (std::abs(r.raw - truth) > kOutlierSigma * sigma) {
       ++ev.outliers;
       if (!r.accepted) ++ev.outliers_rejected;
