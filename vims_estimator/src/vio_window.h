@@ -204,10 +204,9 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
     }
     return;
   }
-  if (!options.carry_seabed_through_outages || !seabed.carried) return;
+  if (!tiedToCarriedSeabed<FrameT>(feature, seabed)) return;  // the same test carriedFeatureCount counts
   const SeabedFix& fix = *seabed.carried;
   const double distance = (T_l_bi.translation().head<2>() - fix.xy).norm();
-  if (!(distance <= options.carry_max_distance_m)) return;
   const double sigma = options.carriedSigma(seabed.sonar_sigma, distance);
   // The gate's verdict on a carried height is not kept in sonar_ok: once the sonar is back the
   // anchor's own range judges the feature afresh.
