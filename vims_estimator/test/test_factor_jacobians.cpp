@@ -273,6 +273,12 @@ TEST(FactorJacobians, SlopedSonarDepthFactor) {
     const SonarDepthFactor horizontal(anchor, range, T_b_s, 0.07);
     std::vector<std::vector<double>> four(params.begin(), params.begin() + 4);
     EXPECT_EQ(test::evaluateResidual(factor, level)(0), test::evaluateResidual(horizontal, four)(0));
+    // A seabed level 0.12 m above the hit raises the plane by 0.12 m: r grows by 0.12 / sigma,
+    // the Jacobians are those of the plane through the hit.
+    const SlopedSonarDepthFactor raised(anchor, range, T_b_s, 0.07, 0.12);
+    EXPECT_NEAR(test::evaluateResidual(raised, params)(0), test::evaluateResidual(factor, params)(0) + 0.12 / 0.07, 1e-9);
+    worst = std::max(worst, test::checkJacobians(raised, params, {kPose, kPose, kEuclid, kEuclid, kEuclid}, kStep, kTol,
+                                                 "sloped sonar with level seed " + std::to_string(seed)));
   }
   RecordProperty("worst_relative_error", test::sci(worst));
 }

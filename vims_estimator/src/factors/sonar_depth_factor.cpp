@@ -14,6 +14,11 @@ double SonarDepthOptions::sigma(double range_std) const {
   return std::sqrt(range_std * range_std + flatness_std * flatness_std);
 }
 
+double SonarDepthOptions::sigmaAt(double sonar_sigma, double distance_m) const {
+  const double misfit = misfit_per_m * distance_m;
+  return std::sqrt(sonar_sigma * sonar_sigma + misfit * misfit);
+}
+
 double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) const {
   const double slope_part = carry_slope_std * distance_m;
   return std::sqrt(sonar_sigma * sonar_sigma + slope_part * slope_part);
@@ -21,7 +26,7 @@ double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) co
 
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
   reader.rejectUnknownKeys({"flatness_std", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
-                            "carry_slope_std", "carry_max_distance_m"});
+                            "carry_slope_std", "carry_max_distance_m", "misfit_per_m"});
   SonarDepthOptions o;
   o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
   o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
@@ -29,6 +34,8 @@ SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
   o.carry_seabed_through_outages = reader.get<bool>("carry_seabed_through_outages", o.carry_seabed_through_outages);
   o.carry_slope_std = reader.get<double>("carry_slope_std", o.carry_slope_std);
   o.carry_max_distance_m = reader.get<double>("carry_max_distance_m", o.carry_max_distance_m);
+  o.misfit_per_m = reader.get<double>("misfit_per_m", o.misfit_per_m);
+  requireNonNegative(reader, "misfit_per_m", o.misfit_per_m);
   requireNonNegative(reader, "flatness_std", o.flatness_std);
   requirePositive(reader, "gate_chi2", o.gate_chi2);
   requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
@@ -44,7 +51,8 @@ std::string SonarDepthOptions::toYaml() const {
      << "gate_max_height_difference: " << gate_max_height_difference << "\n"
      << "carry_seabed_through_outages: " << (carry_seabed_through_outages ? "true" : "false") << "\n"
      << "carry_slope_std: " << carry_slope_std << "\n"
-     << "carry_max_distance_m: " << carry_max_distance_m << "\n";
+     << "carry_max_distance_m: " << carry_max_distance_m << "\n"
+     << "misfit_per_m: " << misfit_per_m << "\n";
   return os.str();
 }
 
@@ -98,18 +106,25 @@ Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen:
 
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
-                          SonarDepthJacobians* J, const Eigen::Vector2d& slope) {
+                          SonarDepthJacobians* J, const Eigen::Vector2d& slope, double level_offset) {
   const Eigen::RowVector3d n_in_b = seabedNormalInBody(slope, T_l_bk.linear());
   const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
   const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
   const Eigen::Vector3d d_b = s_b - f_b;
-  const double r = n_in_b.dot(d_b);
+  const double r = n_in_b.dot(d_b) + level_offset;
   if (J != nullptr) {
     J->d_pose.leftCols<3>().setZero();
     J->d_pose.rightCols<3>() = -n_in_b * so3::skew(d_b);
     J->d_slope = -(T_l_bk.linear() * d_b).head<2>().transpose();
   }
   return r;
+}
+
+double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                        const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td) {
+  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);
+  const Eigen::Vector3d f_b = T_b_c.translation() + lambda * (T_b_c.linear() * unitBearing(anchor, td));
+  return (T_l_bk.linear() * (f_b - s_b)).head<2>().norm();
 }
 
 double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane& plane, const Eigen::Isometry3d& T_l_bk,
@@ -134,8 +149,9 @@ double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane&
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options,
-                               const Eigen::Vector2d& slope) {
-  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td, nullptr, slope), sigma, options);
+                               const Eigen::Vector2d& slope, double level_offset) {
+  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td, nullptr, slope, level_offset), sigma,
+              options);
 }
 
 SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
@@ -145,10 +161,17 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
 }
 
 SonarHitMeasurement::SonarHitMeasurement(const char* factor, const FeatureObservation& anchor_observation,
-                                         double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma)
-    : anchor(anchor_observation), range(range_m), T_b_s(sonar_extrinsic), inv_sigma(1.0 / sigma) {
+                                         double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma,
+                                         double level_offset_m)
+    : anchor(anchor_observation),
+      range(range_m),
+      T_b_s(sonar_extrinsic),
+      inv_sigma(1.0 / sigma),
+      level_offset(level_offset_m) {
   if (!(std::isfinite(range_m) && range_m > 0.0)) throw std::invalid_argument(std::string(factor) + ": range must be > 0");
   if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument(std::string(factor) + ": sigma must be > 0");
+  if (!std::isfinite(level_offset_m))
+    throw std::invalid_argument(std::string(factor) + ": the seabed level offset must be finite");
 }
 
 bool SonarHitMeasurement::evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
@@ -156,7 +179,8 @@ bool SonarHitMeasurement::evaluate(double const* const* parameters, const Eigen:
   SonarDepthJacobians J;
   const double r = sonarDepthResidual(anchor, range, T_b_s, poseBlockToIsometry(parameters[0]),
                                       poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
-                                      jacobians ? &J : nullptr, slope ? *slope : Eigen::Vector2d::Zero());
+                                      jacobians ? &J : nullptr, slope ? *slope : Eigen::Vector2d::Zero(),
+                                      level_offset);
   if (!writeWhitened(r, J, inv_sigma, parameters, residuals, jacobians)) return false;
   if (slope && jacobians && jacobians[4]) {
     jacobians[4][0] = inv_sigma * J.d_slope(0);
@@ -174,8 +198,8 @@ bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residua
 }
 
 SlopedSonarDepthFactor::SlopedSonarDepthFactor(const FeatureObservation& anchor, double range,
-                                               const Eigen::Isometry3d& T_b_s, double sigma)
-    : hit_("SlopedSonarDepthFactor", anchor, range, T_b_s, sigma) {}
+                                               const Eigen::Isometry3d& T_b_s, double sigma, double level_offset)
+    : hit_("SlopedSonarDepthFactor", anchor, range, T_b_s, sigma, level_offset) {}
 
 bool SlopedSonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const Eigen::Vector2d slope(parameters[4][0], parameters[4][1]);

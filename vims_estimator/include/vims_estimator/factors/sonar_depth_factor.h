@@ -48,7 +48,15 @@
 ///
 /// p_k still cancels; every Jacobian above holds with e_z replaced by n, and
 ///   dr/dg = ((f_l - s_l)_x, (f_l - s_l)_y) = -(R_k (s_b - f_b))_xy.
-/// g = 0 is the horizontal plane of the paper. The carried height generalises in the same way:
+/// g = 0 is the horizontal plane of the paper.
+///
+/// Seabed level (local_plane with average_hits, seabed_level.h): the plane passes not through k's
+/// own hit but through the smooth seabed's level there, level_k = (s_l)_z + delta_k, estimated
+/// from the hits around k before each solve and held constant in it:
+///
+///   r = n^T R_k (s_b - f_b) + delta_k          (Jacobians as above: delta_k is a constant)
+///
+/// The carried height generalises in the same way:
 /// r = h + g . ((f_l)_xy - xy_h) - (f_l)_z with the plane (h, xy_h, g) of the last fix (constant).
 
 #include <ceres/sized_cost_function.h>
@@ -69,6 +77,11 @@ struct SonarDepthOptions {
   /// Gate on the whitened squared residual r^2/sigma^2: the 99 % quantile of chi-square with one
   /// degree of freedom, so a consistent feature is dropped 1 % of the time.
   double gate_chi2 = 6.635;
+  /// [m/m] Growth of the seabed's deviation from the plane with the horizontal distance between
+  /// the feature and the beam's hit: relief on the scale of the camera footprint (hummocks,
+  /// hollows, a metre or a few across) that a plane cannot follow. A feature next to the hit
+  /// shares its bump; one metres away does not. 0: every feature as close as the hit.
+  double misfit_per_m = 0.0;
   /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
   double gate_max_height_difference = 0.5;
@@ -84,6 +97,9 @@ struct SonarDepthOptions {
 
   /// sqrt(range_std^2 + flatness_std^2).
   double sigma(double range_std) const;
+  /// Standard deviation of the sonar depth factor of a feature `distance_m` from the beam's hit:
+  /// sqrt(sonar_sigma^2 + (misfit_per_m * distance_m)^2).
+  double sigmaAt(double sonar_sigma, double distance_m) const;
   /// Standard deviation of the carried seabed height at horizontal distance `distance_m` from
   /// the fix: sqrt(sonar_sigma^2 + (carry_slope_std * distance_m)^2).
   double carriedSigma(double sonar_sigma, double distance_m) const;
@@ -117,12 +133,16 @@ struct SeabedPlane {
 /// of R_l_b for g = 0, so the horizontal model's numbers do not depend on this generalisation).
 Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen::Matrix3d& R_l_b);
 
-/// The unwhitened residual r = n^T (s_l - f_l) (file comment; slope 0: (s_l)_z - (f_l)_z);
-/// Jacobians if non-null (d_slope included).
+/// The unwhitened residual r = n^T (s_l - f_l) + level_offset (file comment; slope 0 and no
+/// offset: (s_l)_z - (f_l)_z); Jacobians if non-null (d_slope included).
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* jacobians = nullptr,
-                          const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
+                          const Eigen::Vector2d& slope = Eigen::Vector2d::Zero(), double level_offset = 0.0);
+
+/// Horizontal distance |(f_l - s_l)_xy| between the feature and the beam's hit [m].
+double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
+                        const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td);
 
 /// The unwhitened seabed height residual r = plane.heightAt((f_l)_xy) - (f_l)_z (file comment);
 /// Jacobians if non-null. The plane is a constant (the last sonar fix).
@@ -142,7 +162,7 @@ struct SonarGateResult {
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options,
-                               const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
+                               const Eigen::Vector2d& slope = Eigen::Vector2d::Zero(), double level_offset = 0.0);
 
 /// The same gate on a seabed height residual (a carried plane and its carriedSigma()).
 SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
@@ -150,11 +170,12 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
                                  double td, double sigma, const SonarDepthOptions& options);
 
 /// What a sonar depth factor measures, shared by the level and the sloped factor: the anchor
-/// observation, the filtered range d[k], the sonar extrinsic and 1/sigma. Throws
-/// std::invalid_argument (naming `factor`) if range is not finite and > 0 or sigma is not > 0.
+/// observation, the filtered range d[k], the sonar extrinsic, 1/sigma and the seabed level's
+/// offset from the hit (0: the plane through the hit). Throws std::invalid_argument (naming
+/// `factor`) if range is not finite and > 0, sigma is not > 0 or the offset is not finite.
 struct SonarHitMeasurement {
   SonarHitMeasurement(const char* factor, const FeatureObservation& anchor, double range,
-                      const Eigen::Isometry3d& T_b_s, double sigma);
+                      const Eigen::Isometry3d& T_b_s, double sigma, double level_offset = 0.0);
   /// Writes r / sigma and the whitened Jacobians of blocks [pose_k, T_b_c, lambda, td] (and of
   /// the gradient, block 4, when `slope` is given).
   bool evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
@@ -164,6 +185,7 @@ struct SonarHitMeasurement {
   double range;
   Eigen::Isometry3d T_b_s;
   double inv_sigma;
+  double level_offset;
 };
 
 /// Ceres wrapper: parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1)]; returns r / sigma.
@@ -182,11 +204,12 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
 
 /// The sonar depth factor on a local seabed plane whose gradient is a state (seabed model
 /// `local_plane`): parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1), slope_k (2)];
-/// returns r / sigma with r = n^T (s_l - f_l). Same argument checks as SonarDepthFactor.
+/// returns r / sigma with r = n^T (s_l - f_l) + level_offset (the seabed level's height above
+/// the hit, a constant). Same argument checks as SonarHitMeasurement.
 class SlopedSonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1, 2> {
  public:
   SlopedSonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
-                         double sigma);
+                         double sigma, double level_offset = 0.0);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
