@@ -4,9 +4,8 @@
 For every scenario x slope x roughness: one simulated sequence (vims_sim --terrain-slope-deg S,
 roughness R as --terrain-roughness-m R up to 0.2 m and as rocks up to R tall above, rolling relief
 as the `slope4` preset, pressure sensor on), then
-vims_offline with the seabed model `horizontal` and `local_plane` (and, on request,
-`local_plane_own_hit`: planes through each keyframe's own hit, no seabed level), each with and
-without the pressure factor. Prints one row per run and writes WORK/terrain_sweep.md, .csv and an SVG plot of
+vims_offline with the seabed model `horizontal` and `local_plane`, each with and without the
+pressure factor. Prints one row per run and writes WORK/terrain_sweep.md, .csv and an SVG plot of
 the VIO ATE against the slope (WORK/terrain_sweep.svg).
 
     bench/terrain_sweep.py --work /work/data/terrain [--scenarios tank field] [--slopes 0 2 4 8]
@@ -33,17 +32,8 @@ from concurrent.futures import ThreadPoolExecutor
 from bench_common import ROOT, eval_run, prepare_work_dir, tool_dir
 
 
-# Seabed models of the sweep: the estimator's two, and local_plane with each plane through its own
-# sonar hit (seabed.average_hits false, the ablation of the seabed level).
-MODELS = {
-    "horizontal": "{model: horizontal}",
-    "local_plane": "{model: local_plane}",
-    "local_plane_own_hit": "{model: local_plane, average_hits: false}",
-}
-
-
 def config_text(model, pressure):
-    return f"estimator:\n  seabed: {MODELS[model]}\n  pressure: {{enabled: {'true' if pressure else 'false'}}}\n"
+    return f"estimator:\n  seabed: {{model: {model}}}\n  pressure: {{enabled: {'true' if pressure else 'false'}}}\n"
 
 
 def roughness_flags(rough):
@@ -107,7 +97,7 @@ def main():
     ap.add_argument("--roughness", type=float, nargs="+", default=[0.0, 0.1, 0.3])
     ap.add_argument("--duration", type=float, default=300.0)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--models", nargs="+", default=["horizontal", "local_plane"], choices=list(MODELS))
+    ap.add_argument("--models", nargs="+", default=["horizontal", "local_plane"])
     ap.add_argument("--pressure", nargs="+", default=["off", "on"], choices=["on", "off"])
     ap.add_argument("--runs", nargs="+", metavar="MODEL:PRESSURE",
                     help="the model/pressure pairs to run (e.g. horizontal:on local_plane:on local_plane:off) "
@@ -119,9 +109,9 @@ def main():
     if args.runs:
         pairs = [tuple(r.split(":", 1)) for r in args.runs]
         bad = [r for r, pair in zip(args.runs, pairs)
-               if len(pair) != 2 or pair[0] not in MODELS or pair[1] not in ("on", "off")]
+               if len(pair) != 2 or pair[0] not in ("horizontal", "local_plane") or pair[1] not in ("on", "off")]
         if bad:
-            sys.exit(f"terrain_sweep.py: --runs takes MODEL:PRESSURE with MODEL {'|'.join(MODELS)} and "
+            sys.exit(f"terrain_sweep.py: --runs takes MODEL:PRESSURE with MODEL horizontal|local_plane and "
                      f"PRESSURE on|off, got {' '.join(bad or args.runs)}")
     else:
         pairs = [(model, p) for model in args.models for p in args.pressure]

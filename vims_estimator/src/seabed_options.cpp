@@ -9,7 +9,7 @@ const char* seabedModelName(SeabedModel model) {
 }
 
 SeabedModelOptions SeabedModelOptions::fromReader(const ConfigReader& r) {
-  r.rejectUnknownKeys({"model", "slope_random_walk", "slope_step_std", "slope_prior_std", "max_slope", "average_hits"});
+  r.rejectUnknownKeys({"model", "slope_random_walk", "slope_step_std", "slope_prior_std", "max_slope"});
   SeabedModelOptions o;
   const std::string model = r.get<std::string>("model", seabedModelName(o.model));
   if (model == "horizontal") {
@@ -23,7 +23,6 @@ SeabedModelOptions SeabedModelOptions::fromReader(const ConfigReader& r) {
   readInRange(r, "slope_step_std", &o.slope_step_std, 1e-6, 1.0);
   readInRange(r, "slope_prior_std", &o.slope_prior_std, 1e-4, 10.0);
   readInRange(r, "max_slope", &o.max_slope, 0.01, 1.0);
-  o.average_hits = r.get<bool>("average_hits", o.average_hits);
   return o;
 }
 
@@ -31,7 +30,7 @@ std::string SeabedModelOptions::toYaml() const {
   std::ostringstream os;
   os << "model: " << seabedModelName(model) << "\nslope_random_walk: " << slope_random_walk
      << "\nslope_step_std: " << slope_step_std << "\nslope_prior_std: " << slope_prior_std
-     << "\nmax_slope: " << max_slope << "\naverage_hits: " << (average_hits ? "true" : "false") << "\n";
+     << "\nmax_slope: " << max_slope << "\n";
   return os.str();
 }
 

@@ -78,14 +78,6 @@ VioEstimator::VioEstimator(const SequenceConfig& sequence, const EstimatorOption
   if (!(focal_ > 0.0)) throw std::invalid_argument("VioEstimator: camera focal length must be > 0");
   sonar_sigma_ = options_.factors.sonar_depth.sigma(
       std::max(sequence_.sonar.range_noise_std, options_.sonar_min_range_std_m));
-  if (slopedSeabed() && options_.seabed.average_hits) {
-    const SonarDepthOptions& sonar_depth = options_.factors.sonar_depth;
-    seabed_level_radius_ = seabedLevelRadius(sonar_depth.flatness_std, options_.seabed.slope_random_walk,
-                                             sonar_depth.carry_max_distance_m);
-    // A hovering vehicle adds a hit per keyframe at one spot: past a few hundred the level's
-    // noise (range noise / sqrt(hits)) is far below anything else, so older ones add nothing.
-    seabed_hits_ = SeabedHitHistory(seabed_level_radius_, 256);
-  }
   isometryToPoseBlock(sequence_.camera.T_b_c, T_b_c_block_);
   td_[0] = options_.td_initial_s;
   if (sequence_.pressure && options_.pressure.enabled) {
@@ -108,7 +100,6 @@ void VioEstimator::reset(const std::string& why) {
   priors_.clear();
   vi_init_frames_.clear();
   seabed_fix_.reset();  // a new session has a new frame l
-  seabed_hits_.clear();
   surface_initialized_ = false;
 }
 
@@ -571,7 +562,6 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
     keyframe = tracked_count < options_.keyframe_min_tracked || common == 0 || parallax >= options_.keyframe_parallax_px;
   }
 
-  updateSeabedLevels();
   initializeFeatureDepths();
   // Until the window is full (session start: the gravity direction, the biases and the first
   // velocities are still being settled) every step optimises the whole, still small, window.

@@ -81,9 +81,6 @@ struct VioEstimator::Frame {
   std::optional<double> sonar_range;
   /// Seabed gradient (dh/dx, dh/dy) in frame l under this frame (seabed model local_plane).
   double slope[2] = {0.0, 0.0};
-  /// Height of the seabed's level above this frame's beam hit [m] (local_plane with average_hits:
-  /// seabed_level.h), set from the hits around it before each solve; 0 is the hit itself.
-  double seabed_level_offset = 0.0;
   /// Depth of the pressure port below the surface at t_state [m] (sequences with a pressure sensor).
   std::optional<double> depth;
   /// The session's first frame carries the gauge and first-state priors until marginalised.
@@ -191,16 +188,15 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
                                                                               T_l_bi, T_bc, feature.lambda[0], td[0]));
     if (apply_gate) {
       const Eigen::Vector2d slope = seabed.sloped ? Eigen::Vector2d(a->slope[0], a->slope[1]) : Eigen::Vector2d::Zero();
-      const double level = seabed.sloped ? a->seabed_level_offset : 0.0;
       const SonarGateResult gate = sonarDepthGate(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc,
-                                                  feature.lambda[0], td[0], sigma, options, slope, level);
+                                                  feature.lambda[0], td[0], sigma, options, slope);
       if (!gate.consistent) feature.sonar_ok = false;
     }
     if (feature.sonar_ok) {
       ResidualSpec spec;
       spec.sonar = true;
       if (seabed.sloped) {
-        spec.cost = new SlopedSonarDepthFactor(anchor, *a->sonar_range, seabed.T_b_s, sigma, a->seabed_level_offset);
+        spec.cost = new SlopedSonarDepthFactor(anchor, *a->sonar_range, seabed.T_b_s, sigma);
         spec.blocks = {a->pose, T_b_c, feature.lambda, td, a->slope};
       } else {
         spec.cost = new SonarDepthFactor(anchor, *a->sonar_range, seabed.T_b_s, sigma);

@@ -172,10 +172,6 @@ void VioEstimator::marginalizeOldest() {
     priors_.clear();
   }
   const bool had_gauge = old->has_first_state_prior;
-  if (seabed_level_radius_ > 0.0 && old->sonar_range) {
-    seabed_hits_.add(sonarHit(*old));  // its hit still sets the level of the keyframes near it
-    seabed_hits_.prune(posePosition(frames_.back()->pose).head<2>());
-  }
   reanchorFeaturesOf(old);
   frames_.pop_front();
   next->preintegration.reset();

@@ -230,9 +230,10 @@ void VioEstimator::updateSeabedFix() {
     const Frame& f = **it;
     if (!f.sonar_range) continue;
     if (seabed_fix_ && seabed_fix_->t > f.t_state) return;  // an older frame: keep the newer fix
+    const Eigen::Isometry3d T_l_b = f.T_l_b();
     SeabedFix fix;
-    fix.height = sonarHit(f).z() + (slopedSeabed() ? f.seabed_level_offset : 0.0);
-    fix.xy = posePosition(f.pose).head<2>();
+    fix.height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range))).z();
+    fix.xy = T_l_b.translation().head<2>();
     fix.t = f.t_state;
     fix.slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
     if (!std::isfinite(fix.height) || !fix.xy.allFinite() || !fix.slope.allFinite()) return;
@@ -241,29 +242,6 @@ void VioEstimator::updateSeabedFix() {
   }
 }
 
-
-Eigen::Vector3d VioEstimator::sonarHit(const Frame& frame) const {
-  return frame.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *frame.sonar_range));
-}
-
-void VioEstimator::updateSeabedLevels() {
-  for (auto& frame : frames_) frame->seabed_level_offset = 0.0;
-  if (!(seabed_level_radius_ > 0.0)) return;
-  std::vector<Eigen::Vector3d> hits(seabed_hits_.hits().begin(), seabed_hits_.hits().end());
-  for (const auto& frame : frames_)
-    if (frame->sonar_range) hits.push_back(sonarHit(*frame));
-  // The same threshold as the sonar gate: a hit this far from its neighbours' median is on a
-  // rock or a fish, not on the seabed whose level the others measure.
-  const SonarDepthOptions& o = options_.factors.sonar_depth;
-  const double outlier = std::min(o.gate_max_height_difference, std::sqrt(o.gate_chi2) * sonar_sigma_);
-  for (auto& frame : frames_) {
-    if (!frame->sonar_range) continue;
-    const Eigen::Vector3d hit = sonarHit(*frame);
-    const auto level = seabedLevelAt(hit, Eigen::Vector2d(frame->slope[0], frame->slope[1]), hits,
-                                     seabed_level_radius_, outlier);
-    if (level) frame->seabed_level_offset = level->height - hit.z();
-  }
-}
 
 double VioEstimator::slopeStepSigma(const Frame& a, const Frame& b) const {
   const double distance = (posePosition(b.pose) - posePosition(a.pose)).head<2>().norm();

@@ -13,6 +13,7 @@ TEST(FactorOptions, EmptySectionGivesDefaultsAndYamlRoundTrips) {
   FactorOptions changed;
   changed.reprojection.pixel_sigma = 0.8;
   changed.sonar_depth.flatness_std = 0.02;
+  changed.sonar_depth.misfit_per_m = 0.7;
   changed.sonar_depth.gate_chi2 = 3.84;
   changed.sonar_depth.carry_seabed_through_outages = false;
   changed.sonar_depth.carry_slope_std = 0.1;
@@ -22,6 +23,7 @@ TEST(FactorOptions, EmptySectionGivesDefaultsAndYamlRoundTrips) {
   const FactorOptions back = FactorOptions::fromReader(ConfigReader::fromString(changed.toYaml()));
   EXPECT_DOUBLE_EQ(back.reprojection.pixel_sigma, 0.8);
   EXPECT_DOUBLE_EQ(back.sonar_depth.flatness_std, 0.02);
+  EXPECT_DOUBLE_EQ(back.sonar_depth.misfit_per_m, 0.7);
   EXPECT_DOUBLE_EQ(back.sonar_depth.gate_chi2, 3.84);
   EXPECT_FALSE(back.sonar_depth.carry_seabed_through_outages);
   EXPECT_DOUBLE_EQ(back.sonar_depth.carry_slope_std, 0.1);
@@ -46,6 +48,7 @@ TEST(FactorOptions, UnknownKeysAndBadValuesNameTheKey) {
   }
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("imu: {}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_slope_std: -0.1}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_per_m: -0.1}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_max_distance_m: 0}")),
                ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("marginalization: {eigenvalue_absolute_threshold: 0}")),

@@ -33,12 +33,8 @@ struct SeabedModelOptions {
   double slope_prior_std = 0.15;
   /// Bound of each gradient component in the solve: 0.36 = 20 deg, steeper is a wall, not a seabed.
   double max_slope = 0.36;
-  /// Place each keyframe's plane at the level of the hits around its own (seabed_level.h) instead
-  /// of through its own hit: one ping on a rock or in a hollow then no longer shifts every feature
-  /// of that keyframe. false is the plane through each hit (the ablation).
-  bool average_hits = true;
 
-  /// Reads {model, slope_random_walk, slope_step_std, slope_prior_std, max_slope, average_hits}; unknown keys
+  /// Reads {model, slope_random_walk, slope_step_std, slope_prior_std, max_slope}; unknown keys
   /// or bad values throw ConfigError naming the key.
   static SeabedModelOptions fromReader(const ConfigReader& reader);
   std::string toYaml() const;

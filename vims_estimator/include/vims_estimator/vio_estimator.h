@@ -34,7 +34,6 @@ class LossFunction;
 #include "vims_estimator/imu_preintegration.h"
 #include "vims_estimator/marginalization.h"
 #include "vims_estimator/pressure_depth_filter.h"
-#include "vims_estimator/seabed_level.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_tracking/feature_tracker.h"
 
@@ -187,14 +186,6 @@ class VioEstimator {
   std::optional<SeabedFix> seabed_fix_;
   /// Refreshes seabed_fix_ from the newest window frame with a sonar range (current estimate).
   void updateSeabedFix();
-  /// Hits of keyframes that left the window, and the radius within which hits set a keyframe's
-  /// seabed level (seabed_level.h; 0: each plane through its own hit).
-  SeabedHitHistory seabed_hits_{0.0, 1};
-  double seabed_level_radius_ = 0.0;
-  /// Sets every window frame's seabed_level_offset from the hits around its own (current estimate).
-  void updateSeabedLevels();
-  /// The beam's hit of `frame` in frame l (the frame must have a range).
-  Eigen::Vector3d sonarHit(const Frame& frame) const;
   /// Features the solve ties to the carried seabed (they share its error: vio_window.h).
   int carriedFeatureCount(const vio_window::SeabedTies& seabed) const;
 

@@ -25,18 +25,18 @@ double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) co
 }
 
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"flatness_std", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
-                            "carry_slope_std", "carry_max_distance_m", "misfit_per_m"});
+  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
+                            "carry_slope_std", "carry_max_distance_m"});
   SonarDepthOptions o;
   o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
+  o.misfit_per_m = reader.get<double>("misfit_per_m", o.misfit_per_m);
   o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
   o.gate_max_height_difference = reader.get<double>("gate_max_height_difference", o.gate_max_height_difference);
   o.carry_seabed_through_outages = reader.get<bool>("carry_seabed_through_outages", o.carry_seabed_through_outages);
   o.carry_slope_std = reader.get<double>("carry_slope_std", o.carry_slope_std);
   o.carry_max_distance_m = reader.get<double>("carry_max_distance_m", o.carry_max_distance_m);
-  o.misfit_per_m = reader.get<double>("misfit_per_m", o.misfit_per_m);
-  requireNonNegative(reader, "misfit_per_m", o.misfit_per_m);
   requireNonNegative(reader, "flatness_std", o.flatness_std);
+  requireNonNegative(reader, "misfit_per_m", o.misfit_per_m);
   requirePositive(reader, "gate_chi2", o.gate_chi2);
   requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
   requireNonNegative(reader, "carry_slope_std", o.carry_slope_std);
@@ -47,12 +47,12 @@ SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
 std::string SonarDepthOptions::toYaml() const {
   std::ostringstream os;
   os << "flatness_std: " << flatness_std << "\n"
+     << "misfit_per_m: " << misfit_per_m << "\n"
      << "gate_chi2: " << gate_chi2 << "\n"
      << "gate_max_height_difference: " << gate_max_height_difference << "\n"
      << "carry_seabed_through_outages: " << (carry_seabed_through_outages ? "true" : "false") << "\n"
      << "carry_slope_std: " << carry_slope_std << "\n"
-     << "carry_max_distance_m: " << carry_max_distance_m << "\n"
-     << "misfit_per_m: " << misfit_per_m << "\n";
+     << "carry_max_distance_m: " << carry_max_distance_m << "\n";
   return os.str();
 }
 
@@ -106,12 +106,12 @@ Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen:
 
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
-                          SonarDepthJacobians* J, const Eigen::Vector2d& slope, double level_offset) {
+                          SonarDepthJacobians* J, const Eigen::Vector2d& slope) {
   const Eigen::RowVector3d n_in_b = seabedNormalInBody(slope, T_l_bk.linear());
   const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
   const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
   const Eigen::Vector3d d_b = s_b - f_b;
-  const double r = n_in_b.dot(d_b) + level_offset;
+  const double r = n_in_b.dot(d_b);
   if (J != nullptr) {
     J->d_pose.leftCols<3>().setZero();
     J->d_pose.rightCols<3>() = -n_in_b * so3::skew(d_b);
@@ -149,9 +149,8 @@ double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane&
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options,
-                               const Eigen::Vector2d& slope, double level_offset) {
-  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td, nullptr, slope, level_offset), sigma,
-              options);
+                               const Eigen::Vector2d& slope) {
+  return gate(sonarDepthResidual(anchor, range, T_b_s, T_l_bk, T_b_c, lambda, td, nullptr, slope), sigma, options);
 }
 
 SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
@@ -161,17 +160,10 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
 }
 
 SonarHitMeasurement::SonarHitMeasurement(const char* factor, const FeatureObservation& anchor_observation,
-                                         double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma,
-                                         double level_offset_m)
-    : anchor(anchor_observation),
-      range(range_m),
-      T_b_s(sonar_extrinsic),
-      inv_sigma(1.0 / sigma),
-      level_offset(level_offset_m) {
+                                         double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma)
+    : anchor(anchor_observation), range(range_m), T_b_s(sonar_extrinsic), inv_sigma(1.0 / sigma) {
   if (!(std::isfinite(range_m) && range_m > 0.0)) throw std::invalid_argument(std::string(factor) + ": range must be > 0");
   if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument(std::string(factor) + ": sigma must be > 0");
-  if (!std::isfinite(level_offset_m))
-    throw std::invalid_argument(std::string(factor) + ": the seabed level offset must be finite");
 }
 
 bool SonarHitMeasurement::evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
@@ -179,8 +171,7 @@ bool SonarHitMeasurement::evaluate(double const* const* parameters, const Eigen:
   SonarDepthJacobians J;
   const double r = sonarDepthResidual(anchor, range, T_b_s, poseBlockToIsometry(parameters[0]),
                                       poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
-                                      jacobians ? &J : nullptr, slope ? *slope : Eigen::Vector2d::Zero(),
-                                      level_offset);
+                                      jacobians ? &J : nullptr, slope ? *slope : Eigen::Vector2d::Zero());
   if (!writeWhitened(r, J, inv_sigma, parameters, residuals, jacobians)) return false;
   if (slope && jacobians && jacobians[4]) {
     jacobians[4][0] = inv_sigma * J.d_slope(0);
@@ -198,8 +189,8 @@ bool SonarDepthFactor::Evaluate(double const* const* parameters, double* residua
 }
 
 SlopedSonarDepthFactor::SlopedSonarDepthFactor(const FeatureObservation& anchor, double range,
-                                               const Eigen::Isometry3d& T_b_s, double sigma, double level_offset)
-    : hit_("SlopedSonarDepthFactor", anchor, range, T_b_s, sigma, level_offset) {}
+                                               const Eigen::Isometry3d& T_b_s, double sigma)
+    : hit_("SlopedSonarDepthFactor", anchor, range, T_b_s, sigma) {}
 
 bool SlopedSonarDepthFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const Eigen::Vector2d slope(parameters[4][0], parameters[4][1]);

@@ -21,9 +21,13 @@
 ///   dr/dp_bc = -e_z^T R_k            dr/dth_bc = e_z^T R_k R_bc [lambda b]x
 ///   dr/dlambda = -e_z^T R_k R_bc b   dr/dtd    = -lambda e_z^T R_k R_bc db/dtd
 ///
-/// Noise: sigma = sqrt(sigma_range^2 + sigma_flatness^2) (range noise of the filtered sonar
-/// depth plus the seabed's deviation from a plane between the beam spot and the feature); the
-/// factor returns r / sigma. It is meant to be used with a robust loss (Huber or Cauchy, chosen
+/// Noise: sigma = sqrt(sigma_range^2 + sigma_flatness^2 + (m D)^2): the range noise of the filtered
+/// sonar depth, the seabed's deviation from a plane at the beam spot, and a misfit growing with
+/// the horizontal distance D between the feature and the hit (SonarDepthOptions::misfit_per_m:
+/// a feature next to the spot sits on the hit's own bump, one metres away does not, and the
+/// features of one keyframe share those bumps rather than err independently); D is taken at the
+/// estimate when the factor is built, so sigma is a constant of the solve. The factor returns
+/// r / sigma. It is meant to be used with a robust loss (Huber or Cauchy, chosen
 /// by the caller) and after sonarDepthGate() has removed features off the seabed plane.
 ///
 /// Seabed height factor (sonar outages): without a range at keyframe k, the last seabed height
@@ -48,15 +52,7 @@
 ///
 /// p_k still cancels; every Jacobian above holds with e_z replaced by n, and
 ///   dr/dg = ((f_l - s_l)_x, (f_l - s_l)_y) = -(R_k (s_b - f_b))_xy.
-/// g = 0 is the horizontal plane of the paper.
-///
-/// Seabed level (local_plane with average_hits, seabed_level.h): the plane passes not through k's
-/// own hit but through the smooth seabed's level there, level_k = (s_l)_z + delta_k, estimated
-/// from the hits around k before each solve and held constant in it:
-///
-///   r = n^T R_k (s_b - f_b) + delta_k          (Jacobians as above: delta_k is a constant)
-///
-/// The carried height generalises in the same way:
+/// g = 0 is the horizontal plane of the paper. The carried height generalises in the same way:
 /// r = h + g . ((f_l)_xy - xy_h) - (f_l)_z with the plane (h, xy_h, g) of the last fix (constant).
 
 #include <ceres/sized_cost_function.h>
@@ -71,17 +67,21 @@
 namespace vims {
 
 struct SonarDepthOptions {
-  /// [m] Deviation of the seabed from a plane between the beam spot and a feature a few metres
-  /// away: a tank floor is flat to a few centimetres, sand ripples are 2-5 cm high.
+  /// [m] Deviation of the seabed from the plane at the beam spot: a tank floor is flat to a few
+  /// centimetres, sand ripples are 2-5 cm high (the growth with distance is misfit_per_m).
   double flatness_std = 0.05;
   /// Gate on the whitened squared residual r^2/sigma^2: the 99 % quantile of chi-square with one
   /// degree of freedom, so a consistent feature is dropped 1 % of the time.
   double gate_chi2 = 6.635;
-  /// [m/m] Growth of the seabed's deviation from the plane with the horizontal distance between
-  /// the feature and the beam's hit: relief on the scale of the camera footprint (hummocks,
-  /// hollows, a metre or a few across) that a plane cannot follow. A feature next to the hit
-  /// shares its bump; one metres away does not. 0: every feature as close as the hit.
-  double misfit_per_m = 0.0;
+  /// [m/m] Growth of the factor's standard deviation with the horizontal distance D between the
+  /// feature and the beam's hit: relief a metre or a few across (hummocks, hollows, boulders
+  /// half-buried) that no plane follows. Its features sit on the same bumps, so their errors are
+  /// shared, not independent, and the growth also keeps the many distant features of a keyframe
+  /// from outvoting the few next to the spot, which see what the sonar saw. 0.3 (30 cm at 1 m)
+  /// leaves the features within ~0.2 m of the spot at full weight (docs/benchmarks.md, Terrain,
+  /// measures 0, 0.1, 0.3 and 1.0 on smooth and rough seabeds: 0.3 is at least as good as 0 on
+  /// every one). 0: every feature as close as the hit (the paper's weighting).
+  double misfit_per_m = 0.3;
   /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
   double gate_max_height_difference = 0.5;
@@ -98,15 +98,16 @@ struct SonarDepthOptions {
   /// sqrt(range_std^2 + flatness_std^2).
   double sigma(double range_std) const;
   /// Standard deviation of the sonar depth factor of a feature `distance_m` from the beam's hit:
-  /// sqrt(sonar_sigma^2 + (misfit_per_m * distance_m)^2).
+  /// sqrt(sonar_sigma^2 + (misfit_per_m * distance_m)^2), sonar_sigma = sigma(range_std).
   double sigmaAt(double sonar_sigma, double distance_m) const;
   /// Standard deviation of the carried seabed height at horizontal distance `distance_m` from
   /// the fix: sqrt(sonar_sigma^2 + (carry_slope_std * distance_m)^2).
   double carriedSigma(double sonar_sigma, double distance_m) const;
 
-  /// Reads {flatness_std, gate_chi2, gate_max_height_difference, carry_seabed_through_outages,
-  /// carry_slope_std, carry_max_distance_m}; unknown keys, negative flatness_std or
-  /// carry_slope_std and non-positive gates or distance throw ConfigError naming the key.
+  /// Reads {flatness_std, misfit_per_m, gate_chi2, gate_max_height_difference,
+  /// carry_seabed_through_outages, carry_slope_std, carry_max_distance_m}; unknown keys, negative
+  /// flatness_std, misfit_per_m or carry_slope_std and non-positive gates or distance throw
+  /// ConfigError naming the key.
   static SonarDepthOptions fromReader(const ConfigReader& reader);
   std::string toYaml() const;
 };
@@ -133,14 +134,14 @@ struct SeabedPlane {
 /// of R_l_b for g = 0, so the horizontal model's numbers do not depend on this generalisation).
 Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen::Matrix3d& R_l_b);
 
-/// The unwhitened residual r = n^T (s_l - f_l) + level_offset (file comment; slope 0 and no
-/// offset: (s_l)_z - (f_l)_z); Jacobians if non-null (d_slope included).
+/// The unwhitened residual r = n^T (s_l - f_l) (file comment; slope 0: (s_l)_z - (f_l)_z);
+/// Jacobians if non-null (d_slope included).
 double sonarDepthResidual(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* jacobians = nullptr,
-                          const Eigen::Vector2d& slope = Eigen::Vector2d::Zero(), double level_offset = 0.0);
+                          const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
 
-/// Horizontal distance |(f_l - s_l)_xy| between the feature and the beam's hit [m].
+/// Horizontal distance D = |(f_l - s_l)_xy| between the feature and the beam's hit [m].
 double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                         const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td);
 
@@ -162,7 +163,7 @@ struct SonarGateResult {
 SonarGateResult sonarDepthGate(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                                const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda,
                                double td, double sigma, const SonarDepthOptions& options,
-                               const Eigen::Vector2d& slope = Eigen::Vector2d::Zero(), double level_offset = 0.0);
+                               const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
 
 /// The same gate on a seabed height residual (a carried plane and its carriedSigma()).
 SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedPlane& plane,
@@ -170,12 +171,11 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
                                  double td, double sigma, const SonarDepthOptions& options);
 
 /// What a sonar depth factor measures, shared by the level and the sloped factor: the anchor
-/// observation, the filtered range d[k], the sonar extrinsic, 1/sigma and the seabed level's
-/// offset from the hit (0: the plane through the hit). Throws std::invalid_argument (naming
-/// `factor`) if range is not finite and > 0, sigma is not > 0 or the offset is not finite.
+/// observation, the filtered range d[k], the sonar extrinsic and 1/sigma. Throws
+/// std::invalid_argument (naming `factor`) if range is not finite and > 0 or sigma is not > 0.
 struct SonarHitMeasurement {
   SonarHitMeasurement(const char* factor, const FeatureObservation& anchor, double range,
-                      const Eigen::Isometry3d& T_b_s, double sigma, double level_offset = 0.0);
+                      const Eigen::Isometry3d& T_b_s, double sigma);
   /// Writes r / sigma and the whitened Jacobians of blocks [pose_k, T_b_c, lambda, td] (and of
   /// the gradient, block 4, when `slope` is given).
   bool evaluate(double const* const* parameters, const Eigen::Vector2d* slope, double* residuals,
@@ -185,7 +185,6 @@ struct SonarHitMeasurement {
   double range;
   Eigen::Isometry3d T_b_s;
   double inv_sigma;
-  double level_offset;
 };
 
 /// Ceres wrapper: parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1)]; returns r / sigma.
@@ -204,12 +203,11 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
 
 /// The sonar depth factor on a local seabed plane whose gradient is a state (seabed model
 /// `local_plane`): parameter blocks [pose_k (7), T_b_c (7), lambda (1), td (1), slope_k (2)];
-/// returns r / sigma with r = n^T (s_l - f_l) + level_offset (the seabed level's height above
-/// the hit, a constant). Same argument checks as SonarHitMeasurement.
+/// returns r / sigma with r = n^T (s_l - f_l). Same argument checks as SonarDepthFactor.
 class SlopedSonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1, 2> {
  public:
   SlopedSonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
-                         double sigma, double level_offset = 0.0);
+                         double sigma);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
