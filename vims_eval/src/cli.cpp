@@ -143,6 +143,7 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
   bool failed = false;
 
   YAML::Node trajectories;
+  std::map<std::string, TrajectoryEvaluation> evaluated;
   for (const auto& name : present) {
     const std::string path = (fs::path(out_dir) / (name + ".tum")).string();
     try {
@@ -154,6 +155,7 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
       trajectories[name] = node;
       for (const auto& p : writeTrajectoryPlots(ev, plot_dir)) plots.push_back(p);
       summaries.push_back(trajectorySummaryLine(ev));
+      evaluated.emplace(name, ev);
     } catch (const std::exception& e) {
       // One broken estimate must not hide the figures of the others; the exit code says it.
       err << "vims_eval run: " << name << ": " << e.what() << "\n";
@@ -165,6 +167,15 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
     }
   }
   if (!present.empty()) root["trajectories"] = trajectories;
+  if (evaluated.count("global") && evaluated.count("vio")) {
+    const GlobalVsVio ratio = compareGlobalWithVio(evaluated.at("global"), evaluated.at("vio"));
+    out << "global against VIO: translation " << formatFixed(ratio.trans_ratio, 3) << "x, rotation "
+        << formatFixed(ratio.rot_ratio, 3) << "x"
+        << (ratio.trans_ratio <= 1.0 ? "" : " (the pose graph made the trajectory worse than the odometry)") << "\n";
+    root["global_vs_vio"]["trans_ratio"] = ratio.trans_ratio;
+    root["global_vs_vio"]["rot_ratio"] = ratio.rot_ratio;
+    summaries.push_back(globalVsVioSummaryLine(ratio));
+  }
 
   if (have_loops) {
     try {

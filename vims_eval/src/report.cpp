@@ -114,6 +114,20 @@ std::string formatFixed(double v, int decimals) {
   return buf;
 }
 
+GlobalVsVio compareGlobalWithVio(const TrajectoryEvaluation& global, const TrajectoryEvaluation& vio) {
+  GlobalVsVio r;
+  r.trans_ratio = global.primary().ate.rmse / vio.primary().ate.rmse;
+  r.rot_ratio = global.primary().rot.rmse / vio.primary().rot.rmse;
+  return r;
+}
+
+std::string globalVsVioSummaryLine(const GlobalVsVio& ratio) {
+  std::ostringstream os;
+  os << "VIMS_EVAL_GLOBAL_VS_VIO trans_ratio=" << num(ratio.trans_ratio, 4) << " rot_ratio=" << num(ratio.rot_ratio, 4)
+     << " global_better=" << (ratio.trans_ratio <= 1.0 ? "yes" : "no");
+  return os.str();
+}
+
 std::string trajectorySummaryLine(const TrajectoryEvaluation& ev) {
   const AlignedErrors& primary = ev.primary();
   std::ostringstream os;

@@ -75,7 +75,7 @@ TEST(AblationTable, MarkdownRowsCarryThePapersColumnsAndSayWhenAVariantFailed) {
   no_loops.has_loops = false;
   const std::string md = ablationMarkdown({okRow("full"), failed, no_loops});
   EXPECT_NE(md.find("| Method | mode | Loop closing (correct / verifications) |"), std::string::npos) << md;
-  EXPECT_NE(md.find("| Full VIMS | full | 25/1957 | 1 | 8/10 | 1.110 | 0.500 | 6.90 | 1.500 | 3.2 |"),
+  EXPECT_NE(md.find("| Full VIMS | full | 25/1957 | 1 | 8/10 | 1.110 | 0.500 | 6.90 | 1.500 | 0.74 | 3.2 |"),
             std::string::npos)
       << md;
   // The '|' of the error text must not open a new cell.
@@ -101,15 +101,16 @@ TEST(AblationTable, CsvHasOneRowPerVariantAndQuotesTheError) {
   EXPECT_FALSE(std::getline(in, extra));
   EXPECT_EQ(header,
             "mode,method,status,verifications,accepted,correct,wrong,revisit_events,revisit_closed,trans_rmse_m,"
-            "trans_pct,rot_rmse_deg,vio_trans_rmse_m,real_time_factor,error");
-  EXPECT_EQ(full, "full,\"Full VIMS\",ok,1957,26,25,1,10,8,1.11,0.5,6.9,1.5,3.25,\"\"");
-  EXPECT_EQ(sonar, "no_sonar,\"w/o Sonar\",failed,,,,,,,nan,nan,nan,nan,nan,\"said \"\"no\"\", twice\"");
+            "trans_pct,rot_rmse_deg,vio_trans_rmse_m,global_over_vio,real_time_factor,error");
+  EXPECT_EQ(full, "full,\"Full VIMS\",ok,1957,26,25,1,10,8,1.11,0.5,6.9,1.5,0.74,3.25,\"\"");
+  EXPECT_EQ(sonar, "no_sonar,\"w/o Sonar\",failed,,,,,,,nan,nan,nan,nan,nan,nan,\"said \"\"no\"\", twice\"");
 }
 
 TEST(AblationTable, SummaryLine) {
   EXPECT_EQ(ablationSummaryLine(okRow("full")),
             "VIMS_ABLATION mode=full status=ok correct=25 verifications=1957 accepted=26 wrong=1 revisit_events=10 "
-            "revisit_closed=8 trans_rmse_m=1.1100 trans_pct=0.5000 rot_rmse_deg=6.9000 vio_trans_rmse_m=1.5000 rtf=3.25");
+            "revisit_closed=8 trans_rmse_m=1.1100 trans_pct=0.5000 rot_rmse_deg=6.9000 vio_trans_rmse_m=1.5000 "
+            "global_over_vio=0.7400 rtf=3.25");
 }
 
 TEST(AblationTable, RealTimeFactorIsReadDefensively) {

@@ -50,12 +50,13 @@ std::vector<StampedPose> groundTruth() {
 }
 
 /// Every 5th ground-truth pose, shifted in time by 2 ms, with a small drift in x.
-std::vector<StampedPose> estimate(const std::vector<StampedPose>& gt) {
+/// Every fifth pose of `gt`, 2 ms late, drifting along x by `drift` m per second.
+std::vector<StampedPose> estimate(const std::vector<StampedPose>& gt, double drift = 0.002) {
   std::vector<StampedPose> est;
   for (std::size_t i = 0; i < gt.size(); i += 5) {
     StampedPose p = gt[i];
     p.t += 0.002;
-    p.p.x() += 0.002 * (p.t - 1000.0);
+    p.p.x() += drift * (p.t - 1000.0);
     est.push_back(p);
   }
   return est;
@@ -154,18 +155,23 @@ TEST(Cli, RunWritesEvalYamlAndPlots) {
   EXPECT_NE(nothing.err.find("nothing to evaluate"), std::string::npos) << nothing.err;
 
   vims::writeTumFile((out / "vio.tum").string(), estimate(gt));
-  vims::writeTumFile((out / "global.tum").string(), estimate(gt));
+  vims::writeTumFile((out / "global.tum").string(), estimate(gt, 0.004));  // twice the VIO's drift
   writeLoops(out / "loops.csv", gt);
   const CliResult result = run({"run", "--sequence", seq.string(), "--out", out.string()});
   ASSERT_EQ(result.code, 0) << result.err;
   EXPECT_NE(result.out.find("VIMS_EVAL label=vio "), std::string::npos);
   EXPECT_NE(result.out.find("VIMS_EVAL label=global "), std::string::npos);
   EXPECT_NE(result.out.find("VIMS_EVAL_LOOPS "), std::string::npos);
+  // A global trajectory drifting twice as fast as the VIO: twice its error, and said so.
+  EXPECT_NE(result.out.find("VIMS_EVAL_GLOBAL_VS_VIO trans_ratio=2.0000 "), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("global_better=no"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("worse than the odometry"), std::string::npos) << result.out;
 
   const YAML::Node yaml = YAML::LoadFile((out / "eval.yaml").string());
   EXPECT_EQ(yaml["sequence"].as<std::string>(), "lap");
   EXPECT_EQ(yaml["trajectories"]["vio"]["associated_poses"].as<int>(), 641);
   EXPECT_GT(yaml["trajectories"]["global"]["alignments"]["se3"]["ate_m"]["rmse"].as<double>(), 0.0);
+  EXPECT_NEAR(yaml["global_vs_vio"]["trans_ratio"].as<double>(), 2.0, 1e-6);
   EXPECT_EQ(yaml["loops"]["correct"].as<int>(), 1);
   EXPECT_EQ(yaml["loops"]["revisit"]["events"].as<int>(), 1);
   EXPECT_EQ(yaml["loops"]["revisit"]["closed"].as<int>(), 1);

@@ -40,6 +40,10 @@ struct AblationRow {
   double rot_rmse_deg = 0.0;   ///< global.tum rotation error RMSE after SE3 alignment
   double vio_trans_rmse_m = 0.0;  ///< vio.tum ATE RMSE (SE3), NaN when absent
   double real_time_factor = 0.0;  ///< from summary.yaml, NaN when absent
+
+  /// trans_rmse_m / vio_trans_rmse_m: above 1 the loops and the pose graph made the trajectory
+  /// worse than the odometry (NaN without vio.tum).
+  double globalOverVio() const { return trans_rmse_m / vio_trans_rmse_m; }
 };
 
 /// Evaluates the outputs of one vims_offline run (global.tum, vio.tum, loops.csv, summary.yaml)

@@ -30,6 +30,17 @@ std::string trajectorySummaryLine(const TrajectoryEvaluation& ev);
 
 YAML::Node trajectoryToYaml(const TrajectoryEvaluation& ev);
 
+/// The global trajectory against the odometry of the same run: translation and rotation RMSE of
+/// global over those of the VIO (primary alignment). Above 1 the loops and the pose graph made
+/// the trajectory worse than the odometry they started from.
+struct GlobalVsVio {
+  double trans_ratio = 0.0;
+  double rot_ratio = 0.0;
+};
+GlobalVsVio compareGlobalWithVio(const TrajectoryEvaluation& global, const TrajectoryEvaluation& vio);
+/// `VIMS_EVAL_GLOBAL_VS_VIO trans_ratio=... rot_ratio=... global_better=yes|no`
+std::string globalVsVioSummaryLine(const GlobalVsVio& ratio);
+
 /// Writes `<dir>/<label>_top.png` (x-y view of ground truth and the estimate after the primary
 /// alignment, start/end markers) and `<dir>/<label>_ate.png` (translation error over time, one
 /// curve per alignment). Creates `dir`. Returns the written paths.
