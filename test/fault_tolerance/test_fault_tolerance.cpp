@@ -201,14 +201,18 @@ RecoveryScan scanRecovery(const Csv& csv, const std::string& column, const std::
 struct CleanReference {
   const char* sequence;  ///< test sequence name (VIMS_TEST_DATA/<sequence>)
   const char* run;       ///< its offline run's folder name below runDir
+  double max_global_ate_m;  ///< about twice what the clean run measures (commit 3d8bce4)
+  double max_vio_ate_m;
 };
-/// 100 s tank, seed 11 (fixture fault_clean_run): camera, magnetometer and IMU faults.
-constexpr CleanReference kShortClean{"fault_clean", "clean"};
+/// 100 s tank, seed 11 (fixture fault_clean_run): camera, magnetometer and IMU faults. Measured:
+/// global 4.9 mm, VIO 7.2 mm.
+constexpr CleanReference kShortClean{"fault_clean", "clean", 0.01, 0.015};
 /// 300 s tank, seed 11 (fixture fault_mission_clean_run): the 30 s sonar outage, 10 % of a mission
 /// with revisits after it. In a 100 s run, clean ATEs are 3-8 mm and a 30 s outage (30 % of the
 /// run) adds 0.3-0.8 % of scale error of its own: 0.96x-4.1x over seeds (bench/sonar_outage.py
-/// --duration 100 --off 30:60, docs/benchmarks.md "Fault tolerance").
-constexpr CleanReference kMissionClean{"fault_mission_clean", "mission_clean"};
+/// --duration 100 --off 30:60, docs/benchmarks.md "Fault tolerance"). Measured: global 12.5 mm,
+/// VIO 25.7 mm.
+constexpr CleanReference kMissionClean{"fault_mission_clean", "mission_clean", 0.025, 0.05};
 
 /// What every faulty run must show: it finished, its outputs exist, the VIO and the pose graph
 /// went on to the end of the sequence, and the final trajectories are within twice (the issue's
@@ -266,8 +270,8 @@ void checkCleanReference(const CleanReference& reference) {
   const double vio_ate = ateSe3(run.sequence, run.out / "vio.tum");
   std::cout << "clean run " << reference.sequence << ": global ATE " << global_ate << " m, VIO ATE " << vio_ate
             << " m\n";
-  EXPECT_LT(global_ate, 0.2);
-  EXPECT_LT(vio_ate, 0.2);
+  EXPECT_LT(global_ate, reference.max_global_ate_m);
+  EXPECT_LT(vio_ate, reference.max_vio_ate_m);
 }
 
 }  // namespace

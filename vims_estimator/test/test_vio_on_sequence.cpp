@@ -169,11 +169,15 @@ Accuracy evaluate(const std::string& dir, const std::vector<vims::StampedPose>& 
 
 }  // namespace
 
-// The full system on tank60 (60 s, 3 s static start, ~10 m travelled): measured ATE 0.12-0.14 %
-// of the distance and 0.2-0.3 deg rotation error (position-yaw alignment). The bounds leave
-// about 3x margin; a broken factor or a wrong extrinsic exceeds them (next test).
-constexpr double kAteBoundPct = 0.5;
-constexpr double kRotBoundDeg = 1.0;
+// The full system on tank60 (60 s, 3 s static start, ~10 m travelled): measured ATE 0.040 % of
+// the distance and 0.118 deg rotation error (SE3 alignment, commit 3d8bce4). The bounds are about
+// twice that; a broken factor or a wrong extrinsic exceeds them (next test).
+constexpr double kAteBoundPct = 0.08;
+constexpr double kRotBoundDeg = 0.25;
+// tank30 with bad input, about twice what each case measures: NaN IMU samples and a 0.2 s gap
+// (ATE 0.290 %), a 2 s camera blackout (0.209 %).
+constexpr double kImuGlitchAteBoundPct = 0.58;
+constexpr double kBlackoutAteBoundPct = 0.42;
 
 TEST(VioOnSequence, Tank60AccuracyWithinBounds) {
   REQUIRE_SEQUENCE(dir, "tank60");
@@ -286,7 +290,8 @@ TEST(VioBadInput, NanAndShortGapInImuKeepTracking) {
   EXPECT_EQ(run.resets, 0);
   EXPECT_GT(run.poses.size(), 250u);
   const Accuracy a = evaluate(dir, run.poses);
-  EXPECT_LT(a.ate_se3_pct, 2.0 * kAteBoundPct);
+  std::cout << "tank30 with NaN IMU samples and a 0.2 s gap: ATE " << a.ate_se3_pct << " %\n";
+  EXPECT_LT(a.ate_se3_pct, kImuGlitchAteBoundPct);
 }
 
 TEST(VioBadInput, LongImuGapResetsAndStartsANewSession) {
@@ -328,7 +333,7 @@ TEST(VioBadInput, CameraBlackoutPropagatesAndRecovers) {
   EXPECT_EQ(run.resets, 0) << "2 s is shorter than failure_lost_tracking_s";
   const Accuracy a = evaluate(dir, run.poses);
   std::cout << "tank30 with a 2 s blackout: ATE " << a.ate_se3_pct << " %\n";
-  EXPECT_LT(a.ate_se3_pct, 4.0 * kAteBoundPct);
+  EXPECT_LT(a.ate_se3_pct, kBlackoutAteBoundPct);
 }
 
 TEST(VioBadInput, SonarOutageFallsBackToVisualInertial) {

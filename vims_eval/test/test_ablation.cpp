@@ -187,10 +187,11 @@ TEST(AblationSystem, RunsTwoVariantsOnTank30AndTablesThem) {
   for (const auto& r : rows) {
     ASSERT_TRUE(r.ok) << r.mode << ": " << r.error << "\n" << log.str() << err.str();
     // 30 s of the tank pattern (1.9 m, nearly straight): the global trajectory is good to
-    // centimetres. The SE3 rotation about a straight path is not determined by positions, so
+    // millimetres (2.7 mm in both variants, commit 3d8bce4; bound about twice). The SE3 rotation about a straight path is not determined by positions, so
     // the rotation RMSE is only checked to be a number here (tank750 gives 0.12 deg).
+    std::cout << "tank30 " << r.mode << ": global ATE " << r.trans_rmse_m << " m\n";
     EXPECT_GT(r.trans_rmse_m, 0.0);
-    EXPECT_LT(r.trans_rmse_m, 0.1) << r.mode;
+    EXPECT_LT(r.trans_rmse_m, 0.006) << r.mode;
     EXPECT_TRUE(std::isfinite(r.rot_rmse_deg)) << r.mode;
     EXPECT_GT(r.real_time_factor, 0.0) << r.mode;
     EXPECT_TRUE(r.has_loops) << r.mode;
