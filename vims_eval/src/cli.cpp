@@ -171,7 +171,7 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
     const GlobalVsVio ratio = compareGlobalWithVio(evaluated.at("global"), evaluated.at("vio"));
     out << "global against VIO: translation " << formatFixed(ratio.trans_ratio, 3) << "x, rotation "
         << formatFixed(ratio.rot_ratio, 3) << "x"
-        << (ratio.trans_ratio <= 1.0 ? "" : " (the pose graph made the trajectory worse than the odometry)") << "\n";
+        << (ratio.globalBetter() ? "" : " (the pose graph made the trajectory worse than the odometry)") << "\n";
     root["global_vs_vio"]["trans_ratio"] = ratio.trans_ratio;
     root["global_vs_vio"]["rot_ratio"] = ratio.rot_ratio;
     summaries.push_back(globalVsVioSummaryLine(ratio));

@@ -124,7 +124,7 @@ GlobalVsVio compareGlobalWithVio(const TrajectoryEvaluation& global, const Traje
 std::string globalVsVioSummaryLine(const GlobalVsVio& ratio) {
   std::ostringstream os;
   os << "VIMS_EVAL_GLOBAL_VS_VIO trans_ratio=" << num(ratio.trans_ratio, 4) << " rot_ratio=" << num(ratio.rot_ratio, 4)
-     << " global_better=" << (ratio.trans_ratio <= 1.0 ? "yes" : "no");
+     << " global_better=" << (ratio.globalBetter() ? "yes" : "no");
   return os.str();
 }
 

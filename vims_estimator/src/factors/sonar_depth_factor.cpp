@@ -15,13 +15,11 @@ double SonarDepthOptions::sigma(double range_std) const {
 }
 
 double SonarDepthOptions::sigmaAt(double sonar_sigma, double distance_m) const {
-  const double misfit = misfit_per_m * distance_m;
-  return std::sqrt(sonar_sigma * sonar_sigma + misfit * misfit);
+  return std::hypot(sonar_sigma, misfit_per_m * distance_m);
 }
 
 double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) const {
-  const double slope_part = carry_slope_std * distance_m;
-  return std::sqrt(sonar_sigma * sonar_sigma + slope_part * slope_part);
+  return std::hypot(sonar_sigma, carry_slope_std * distance_m);
 }
 
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
@@ -60,6 +58,11 @@ namespace {
 /// The feature f_b = p_bc + lambda R_bc b in the body frame of its anchor, and the Jacobian
 /// columns of -n^T f_l = -n^T R_k f_b that the sonar depth and seabed height residuals share
 /// (extrinsic, lambda, td); `up_in_b` = n^T R_k (seabedNormalInBody; e_z^T R_k for a level seabed).
+/// The beam's seabed hit s_b = p_bs + d R_bs e_z in the body frame.
+Eigen::Vector3d hitInBody(double range, const Eigen::Isometry3d& T_b_s) {
+  return T_b_s.translation() + range * T_b_s.linear().col(2);
+}
+
 Eigen::Vector3d featureInBody(const FeatureObservation& anchor, const Eigen::Isometry3d& T_b_c, double lambda,
                               double td, const Eigen::RowVector3d& up_in_b, SonarDepthJacobians* J) {
   const Eigen::Matrix3d R_bc = T_b_c.linear();
@@ -108,7 +111,7 @@ double sonarDepthResidual(const FeatureObservation& anchor, double range, const 
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* J, const Eigen::Vector2d& slope) {
   const Eigen::RowVector3d n_in_b = seabedNormalInBody(slope, T_l_bk.linear());
-  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);  // beam hit, body frame
+  const Eigen::Vector3d s_b = hitInBody(range, T_b_s);
   const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
   const Eigen::Vector3d d_b = s_b - f_b;
   const double r = n_in_b.dot(d_b);
@@ -122,9 +125,8 @@ double sonarDepthResidual(const FeatureObservation& anchor, double range, const 
 
 double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                         const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td) {
-  const Eigen::Vector3d s_b = T_b_s.translation() + range * T_b_s.linear().col(2);
-  const Eigen::Vector3d f_b = T_b_c.translation() + lambda * (T_b_c.linear() * unitBearing(anchor, td));
-  return (T_l_bk.linear() * (f_b - s_b)).head<2>().norm();
+  const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, Eigen::RowVector3d::UnitZ(), nullptr);
+  return (T_l_bk.linear() * (f_b - hitInBody(range, T_b_s))).head<2>().norm();
 }
 
 double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane& plane, const Eigen::Isometry3d& T_l_bk,

@@ -36,6 +36,7 @@ YAML::Node trajectoryToYaml(const TrajectoryEvaluation& ev);
 struct GlobalVsVio {
   double trans_ratio = 0.0;
   double rot_ratio = 0.0;
+  bool globalBetter() const { return trans_ratio <= 1.0; }
 };
 GlobalVsVio compareGlobalWithVio(const TrajectoryEvaluation& global, const TrajectoryEvaluation& vio);
 /// `VIMS_EVAL_GLOBAL_VS_VIO trans_ratio=... rot_ratio=... global_better=yes|no`
