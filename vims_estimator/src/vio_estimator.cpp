@@ -71,7 +71,10 @@ const char* vioStatusName(VioStatus status) {
 // ---------------------------------------------------------------------------------------------
 
 VioEstimator::VioEstimator(const SequenceConfig& sequence, const EstimatorOptions& options, LoggerPtr logger)
-    : sequence_(sequence), options_(options), logger_(std::move(logger)) {
+    : sequence_(sequence),
+      options_(options),
+      logger_(std::move(logger)),
+      seabed_relief_(static_cast<std::size_t>(options.factors.sonar_depth.misfit_history_hits)) {
   noise_ = ImuNoiseParams::fromCalibration(sequence_.imu);
   g_l_ = Eigen::Vector3d(0.0, 0.0, -sequence_.imu.gravity);
   focal_ = 0.5 * (sequence_.camera.fx + sequence_.camera.fy);
@@ -100,6 +103,8 @@ void VioEstimator::reset(const std::string& why) {
   priors_.clear();
   vi_init_frames_.clear();
   seabed_fix_.reset();  // a new session has a new frame l
+  seabed_relief_.clear();
+  relief_.reset();
   surface_initialized_ = false;
 }
 

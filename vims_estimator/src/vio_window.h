@@ -81,6 +81,9 @@ struct VioEstimator::Frame {
   std::optional<double> sonar_range;
   /// Seabed gradient (dh/dx, dh/dy) in frame l under this frame (seabed model local_plane).
   double slope[2] = {0.0, 0.0};
+  /// Features anchored here with a sonar depth factor (VioEstimator::seabedTies counts them): they
+  /// all err by this frame's hit's deviation from the plane (SonarDepthOptions::learn_misfit).
+  int sonar_features = 0;
   /// Depth of the pressure port below the surface at t_state [m] (sequences with a pressure sensor).
   std::optional<double> depth;
   /// The session's first frame carries the gauge and first-state priors until marginalised.
@@ -142,6 +145,9 @@ struct SeabedTies {
   /// them, so each factor's variance is scaled by this count: together they weigh as the one
   /// measurement they share, not as that many independent ones.
   int carried_features = 1;
+  /// The seabed's relief learnt from the sonar's hits (seabed_relief.h), nullopt until learnt or
+  /// without learn_misfit: SonarDepthOptions::misfitPerM turns it into the factors' growth.
+  std::optional<double> relief_per_m;
 };
 
 /// Whether `feature` would be tied to the carried seabed (its anchor has no range, a fix exists
@@ -184,8 +190,9 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
   if (!seabed.use_sonar || !feature.sonar_ok) return;
   const SonarDepthOptions& options = *seabed.options;
   if (a->sonar_range) {
-    const double sigma = options.sigmaAt(seabed.sonar_sigma, sonarHitDistance(anchor, *a->sonar_range, seabed.T_b_s,
-                                                                              T_l_bi, T_bc, feature.lambda[0], td[0]));
+    const double distance = sonarHitDistance(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc, feature.lambda[0], td[0]);
+    const double sigma = SonarDepthOptions::sigmaAt(seabed.sonar_sigma, distance,
+                                                    options.misfitPerM(seabed.relief_per_m, a->sonar_features));
     if (apply_gate) {
       const Eigen::Vector2d slope = seabed.sloped ? Eigen::Vector2d(a->slope[0], a->slope[1]) : Eigen::Vector2d::Zero();
       const SonarGateResult gate = sonarDepthGate(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc,

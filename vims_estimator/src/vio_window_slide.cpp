@@ -140,9 +140,7 @@ void VioEstimator::marginalizeOldest() {
         sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
     auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
     auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
-    SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                      seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
-    seabed.carried_features = carriedFeatureCount(seabed);
+    const SeabedTies seabed = seabedTies(sloped, false);
     std::vector<ResidualSpec> specs;
     for (auto& [id, feature] : features_) {
       if (feature.anchor != old) continue;
@@ -173,6 +171,7 @@ void VioEstimator::marginalizeOldest() {
   }
   const bool had_gauge = old->has_first_state_prior;
   reanchorFeaturesOf(old);
+  if (auto sample = seabedSample(*old, sloped)) seabed_relief_.addHistory(*sample);
   frames_.pop_front();
   next->preintegration.reset();
   if (priors_.empty()) {

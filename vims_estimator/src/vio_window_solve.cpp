@@ -95,9 +95,7 @@ void VioEstimator::optimize(VioFrameResult* result) {
   const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
       sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
-  SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                    seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
-  seabed.carried_features = carriedFeatureCount(seabed);
+  const SeabedTies seabed = seabedTies(sloped, true);
   std::vector<ResidualSpec> specs;
   int n_gated = 0;
   for (auto& [id, feature] : features_) {
@@ -192,6 +190,66 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
   result->sonar_factors = 0;
 }
 
+
+SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
+  SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
+                    seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
+  seabed.carried_features = carriedFeatureCount(seabed);
+  const std::vector<double> distances = countSonarFeatures();
+  if (update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit)
+    updateSeabedRelief(distances, sloped);
+  if (relief_) seabed.relief_per_m = relief_->misfit_per_m;
+  return seabed;
+}
+
+std::vector<double> VioEstimator::countSonarFeatures() {
+  for (auto& frame : frames_) frame->sonar_features = 0;
+  std::vector<double> distances;
+  if (!options_.use_sonar) return distances;
+  const Eigen::Isometry3d T_bc = poseBlockToIsometry(T_b_c_block_);
+  for (const auto& [id, feature] : features_) {
+    Frame* a = feature.anchor;
+    if (!feature.has_depth || !feature.sonar_ok || !(feature.lambda[0] > 0.0) || !a->sonar_range) continue;
+    const auto obs = a->obs.find(id);
+    if (obs == a->obs.end()) continue;
+    ++a->sonar_features;
+    distances.push_back(sonarHitDistance(obs->second.fo, *a->sonar_range, sequence_.sonar.T_b_s, a->T_l_b(), T_bc,
+                                         feature.lambda[0], td_[0]));
+  }
+  return distances;
+}
+
+std::optional<SeabedSample> VioEstimator::seabedSample(const Frame& f, bool sloped) const {
+  if (!f.sonar_range) return std::nullopt;
+  const Eigen::Vector3d hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
+  SeabedSample sample;
+  sample.xy = hit.head<2>();
+  sample.height = hit.z();
+  if (sloped) sample.slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
+  return sample;
+}
+
+void VioEstimator::updateSeabedRelief(const std::vector<double>& feature_distances, bool sloped) {
+  if (feature_distances.empty()) return;
+  std::vector<double> d = feature_distances;
+  const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  std::vector<SeabedSample> window;
+  for (const auto& frame : frames_)
+    if (auto sample = seabedSample(*frame, sloped)) window.push_back(*sample);
+  const SonarDepthOptions& o = options_.factors.sonar_depth;
+  auto estimate = seabed_relief_.estimate(window, sonar_sigma_, *mid, o.misfit_min_pairs);
+  if (!estimate) return;  // too few pairs (start, outage, hovering): keep what was learnt
+  relief_ = estimate;
+  const double t = frames_.back()->t_stamp;
+  if (t - last_relief_log_t_ >= 60.0) {
+    last_relief_log_t_ = t;
+    logger_->info(kComponent, VIMS_STR("seabed relief " << std::fixed << std::setprecision(3) << relief_->misfit_per_m
+                                                         << " m/m from " << relief_->pairs << " pairs of sonar hits "
+                                                         << std::setprecision(2) << relief_->pair_distance_m
+                                                         << " m apart (the features' median distance from their hit)"));
+  }
+}
 
 int VioEstimator::carriedFeatureCount(const SeabedTies& seabed) const {
   int n = 0;

@@ -386,10 +386,12 @@ TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
   // of that, so 0.2 m off at 0.67 m from the spot is relief, not a rock.
   const double distance = sonarHitDistance(anchor, 3.0, T_down, T_l_b, T_down, lambda_true, 0.0);
   EXPECT_NEAR(distance, 3.0 * std::sqrt(0.05), 1e-12);
-  EXPECT_NEAR(options.sigmaAt(sigma, 0.0), sigma, 1e-15);
-  EXPECT_NEAR(options.sigmaAt(sigma, distance), std::hypot(sigma, 0.3 * distance), 1e-15);
-  EXPECT_TRUE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0, options.sigmaAt(sigma, distance),
-                             options).consistent);
+  const double misfit = options.misfitPerM(std::nullopt, 40);  // nothing learnt yet: misfit_per_m
+  EXPECT_DOUBLE_EQ(misfit, 0.3);
+  EXPECT_NEAR(SonarDepthOptions::sigmaAt(sigma, 0.0, misfit), sigma, 1e-15);
+  EXPECT_NEAR(SonarDepthOptions::sigmaAt(sigma, distance, misfit), std::hypot(sigma, 0.3 * distance), 1e-15);
+  EXPECT_TRUE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0,
+                             SonarDepthOptions::sigmaAt(sigma, distance, misfit), options).consistent);
   (void)rng;
 }
 

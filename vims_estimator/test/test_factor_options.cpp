@@ -14,6 +14,9 @@ TEST(FactorOptions, EmptySectionGivesDefaultsAndYamlRoundTrips) {
   changed.reprojection.pixel_sigma = 0.8;
   changed.sonar_depth.flatness_std = 0.02;
   changed.sonar_depth.misfit_per_m = 0.7;
+  changed.sonar_depth.learn_misfit = false;
+  changed.sonar_depth.misfit_history_hits = 40;
+  changed.sonar_depth.misfit_min_pairs = 12;
   changed.sonar_depth.gate_chi2 = 3.84;
   changed.sonar_depth.carry_seabed_through_outages = false;
   changed.sonar_depth.carry_slope_std = 0.1;
@@ -24,6 +27,9 @@ TEST(FactorOptions, EmptySectionGivesDefaultsAndYamlRoundTrips) {
   EXPECT_DOUBLE_EQ(back.reprojection.pixel_sigma, 0.8);
   EXPECT_DOUBLE_EQ(back.sonar_depth.flatness_std, 0.02);
   EXPECT_DOUBLE_EQ(back.sonar_depth.misfit_per_m, 0.7);
+  EXPECT_FALSE(back.sonar_depth.learn_misfit);
+  EXPECT_EQ(back.sonar_depth.misfit_history_hits, 40);
+  EXPECT_EQ(back.sonar_depth.misfit_min_pairs, 12);
   EXPECT_DOUBLE_EQ(back.sonar_depth.gate_chi2, 3.84);
   EXPECT_FALSE(back.sonar_depth.carry_seabed_through_outages);
   EXPECT_DOUBLE_EQ(back.sonar_depth.carry_slope_std, 0.1);
@@ -49,6 +55,8 @@ TEST(FactorOptions, UnknownKeysAndBadValuesNameTheKey) {
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("imu: {}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_slope_std: -0.1}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_per_m: -0.1}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_history_hits: 0}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_min_pairs: -3}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_max_distance_m: 0}")),
                ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("marginalization: {eigenvalue_absolute_threshold: 0}")),

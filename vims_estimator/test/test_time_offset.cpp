@@ -37,7 +37,9 @@ namespace {
 // The tank's floor is flat: no relief for the sonar factors' misfit growth to allow for
 // (SonarDepthOptions::misfit_per_m), so these tests weigh the distant features' sonar factors in
 // full, as the paper does. They observe td too: with the default growth (0.3 m/m, for relief)
-// the estimate is ~2 ms further off here: +3.1 ms and +33.2 ms with the tracker (README).
+// the estimate is ~2 ms further off here: +3.1 ms and +33.2 ms with the tracker (README). The
+// relief learnt from the sonar's hits (learn_misfit) is 0 on this floor, so misfit_per_m, the
+// growth's floor, decides.
 constexpr double kTankFloorMisfit = 0.0;
 
 struct TdRun {

@@ -243,6 +243,7 @@ TEST(VioOnSequence, WrongCameraExtrinsicExceedsTheBound) {
   vims::EstimatorOptions level;
   level.seabed.model = vims::SeabedModel::kHorizontal;
   level.factors.sonar_depth.misfit_per_m = 0.0;
+  level.factors.sonar_depth.learn_misfit = false;
   const RunResult run = runVio(dir, level, {}, [](vims::SequenceConfig& c) {
     Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
     delta.linear() = Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();

@@ -34,6 +34,7 @@ class LossFunction;
 #include "vims_estimator/imu_preintegration.h"
 #include "vims_estimator/marginalization.h"
 #include "vims_estimator/pressure_depth_filter.h"
+#include "vims_estimator/seabed_relief.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_tracking/feature_tracker.h"
 
@@ -188,6 +189,20 @@ class VioEstimator {
   void updateSeabedFix();
   /// Features the solve ties to the carried seabed (they share its error: vio_window.h).
   int carriedFeatureCount(const vio_window::SeabedTies& seabed) const;
+  /// The sonar hits that left the window and the relief learnt from them with the window's
+  /// (SonarDepthOptions::learn_misfit); the estimate is kept through stretches without pairs.
+  SeabedRelief seabed_relief_;
+  std::optional<SeabedReliefEstimate> relief_;
+  double last_relief_log_t_ = -1e300;
+  /// How this solve (update_relief: it also re-learns the relief first) or this
+  /// marginalisation ties features to the seabed; counts each frame's sonar-tied features.
+  vio_window::SeabedTies seabedTies(bool sloped, bool update_relief);
+  /// Sets each frame's sonar_features; returns the horizontal distances of those features from
+  /// their anchor's hit at the current estimate.
+  std::vector<double> countSonarFeatures();
+  void updateSeabedRelief(const std::vector<double>& feature_distances, bool sloped);
+  /// The seabed point frame f's sonar hit, at the current estimate (nullopt without a range).
+  std::optional<SeabedSample> seabedSample(const Frame& f, bool sloped) const;
 
   std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results

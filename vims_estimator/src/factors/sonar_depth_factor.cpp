@@ -1,5 +1,6 @@
 #include "vims_estimator/factors/sonar_depth_factor.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -14,8 +15,13 @@ double SonarDepthOptions::sigma(double range_std) const {
   return std::sqrt(range_std * range_std + flatness_std * flatness_std);
 }
 
-double SonarDepthOptions::sigmaAt(double sonar_sigma, double distance_m) const {
-  return std::hypot(sonar_sigma, misfit_per_m * distance_m);
+double SonarDepthOptions::sigmaAt(double sonar_sigma, double distance_m, double misfit) {
+  return std::hypot(sonar_sigma, misfit * distance_m);
+}
+
+double SonarDepthOptions::misfitPerM(const std::optional<double>& relief_per_m, int anchor_features) const {
+  if (!learn_misfit || !relief_per_m) return misfit_per_m;
+  return std::max(misfit_per_m, *relief_per_m * std::sqrt(0.5 * (std::max(anchor_features, 0) + 1)));
 }
 
 double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) const {
@@ -23,11 +29,14 @@ double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) co
 }
 
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
+  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "learn_misfit", "misfit_history_hits", "misfit_min_pairs", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
                             "carry_slope_std", "carry_max_distance_m"});
   SonarDepthOptions o;
   o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
   o.misfit_per_m = reader.get<double>("misfit_per_m", o.misfit_per_m);
+  o.learn_misfit = reader.get<bool>("learn_misfit", o.learn_misfit);
+  o.misfit_history_hits = reader.get<int>("misfit_history_hits", o.misfit_history_hits);
+  o.misfit_min_pairs = reader.get<int>("misfit_min_pairs", o.misfit_min_pairs);
   o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
   o.gate_max_height_difference = reader.get<double>("gate_max_height_difference", o.gate_max_height_difference);
   o.carry_seabed_through_outages = reader.get<bool>("carry_seabed_through_outages", o.carry_seabed_through_outages);
@@ -35,6 +44,8 @@ SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
   o.carry_max_distance_m = reader.get<double>("carry_max_distance_m", o.carry_max_distance_m);
   requireNonNegative(reader, "flatness_std", o.flatness_std);
   requireNonNegative(reader, "misfit_per_m", o.misfit_per_m);
+  requirePositive(reader, "misfit_history_hits", o.misfit_history_hits);
+  requirePositive(reader, "misfit_min_pairs", o.misfit_min_pairs);
   requirePositive(reader, "gate_chi2", o.gate_chi2);
   requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
   requireNonNegative(reader, "carry_slope_std", o.carry_slope_std);
@@ -46,6 +57,9 @@ std::string SonarDepthOptions::toYaml() const {
   std::ostringstream os;
   os << "flatness_std: " << flatness_std << "\n"
      << "misfit_per_m: " << misfit_per_m << "\n"
+     << "learn_misfit: " << (learn_misfit ? "true" : "false") << "\n"
+     << "misfit_history_hits: " << misfit_history_hits << "\n"
+     << "misfit_min_pairs: " << misfit_min_pairs << "\n"
      << "gate_chi2: " << gate_chi2 << "\n"
      << "gate_max_height_difference: " << gate_max_height_difference << "\n"
      << "carry_seabed_through_outages: " << (carry_seabed_through_outages ? "true" : "false") << "\n"

@@ -59,6 +59,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 
 #include "vims_common/config_reader.h"
@@ -78,10 +79,24 @@ struct SonarDepthOptions {
   /// half-buried) that no plane follows. Its features sit on the same bumps, so their errors are
   /// shared, not independent, and the growth also keeps the many distant features of a keyframe
   /// from outvoting the few next to the spot, which see what the sonar saw. 0.3 (30 cm at 1 m)
-  /// leaves the features within ~0.2 m of the spot at full weight (docs/benchmarks.md, Terrain,
-  /// measures 0, 0.1, 0.3 and 1.0 on smooth and rough seabeds: 0.3 is at least as good as 0 on
-  /// every one). 0: every feature as close as the hit (the paper's weighting).
+  /// leaves the features within ~0.2 m of the spot at full weight; on smooth seabeds it is as good
+  /// as 0 or better (docs/benchmarks.md, Terrain, measures 0, 0.1, 0.3 and 1.0). With
+  /// learn_misfit it is the floor of the learnt growth. 0 and learn_misfit false: every feature
+  /// as close as the hit (the paper's weighting).
   double misfit_per_m = 0.3;
+  /// Learn the growth from the seabed (seabed_relief.h, docs/factors.md 5e): the relief m that
+  /// pairs of sonar hits show at the features' distances, times sqrt((N + 1) / 2) for the N
+  /// sonar-tied features of the anchor keyframe, which all err by the same hit's deviation from
+  /// the plane; misfit_per_m where that is less, or until enough pairs are seen. A rough seabed
+  /// weighs its distant features down by what its roughness is, wherever the vehicle is.
+  bool learn_misfit = true;
+  /// Sonar hits kept after their keyframe left the window to learn the relief from: 100 hits
+  /// are some 10-30 m of track at survey speed, enough pairs for a median, short enough for the
+  /// VIO's drift (millimetres) not to matter.
+  int misfit_history_hits = 100;
+  /// Pairs of hits at the features' distances needed before the learnt value replaces
+  /// misfit_per_m (a median of fewer scatters by more than the relief).
+  int misfit_min_pairs = 200;
   /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
   double gate_max_height_difference = 0.5;
@@ -98,13 +113,18 @@ struct SonarDepthOptions {
   /// sqrt(range_std^2 + flatness_std^2).
   double sigma(double range_std) const;
   /// Standard deviation of the sonar depth factor of a feature `distance_m` from the beam's hit:
-  /// sqrt(sonar_sigma^2 + (misfit_per_m * distance_m)^2), sonar_sigma = sigma(range_std).
-  double sigmaAt(double sonar_sigma, double distance_m) const;
+  /// sqrt(sonar_sigma^2 + (misfit * distance_m)^2), sonar_sigma = sigma(range_std), misfit from
+  /// misfitPerM().
+  static double sigmaAt(double sonar_sigma, double distance_m, double misfit);
+  /// The growth of sigma per metre: misfit_per_m without a learnt relief (or with learn_misfit
+  /// false), else max(misfit_per_m, relief_per_m * sqrt((anchor_features + 1) / 2)).
+  double misfitPerM(const std::optional<double>& relief_per_m, int anchor_features) const;
   /// Standard deviation of the carried seabed height at horizontal distance `distance_m` from
   /// the fix: sqrt(sonar_sigma^2 + (carry_slope_std * distance_m)^2).
   double carriedSigma(double sonar_sigma, double distance_m) const;
 
-  /// Reads {flatness_std, misfit_per_m, gate_chi2, gate_max_height_difference,
+  /// Reads {flatness_std, misfit_per_m, learn_misfit, misfit_history_hits, misfit_min_pairs,
+  /// gate_chi2, gate_max_height_difference,
   /// carry_seabed_through_outages, carry_slope_std, carry_max_distance_m}; unknown keys, negative
   /// flatness_std, misfit_per_m or carry_slope_std and non-positive gates or distance throw
   /// ConfigError naming the key.
