@@ -155,7 +155,7 @@ int main(int argc, char** argv) {
       rel = rel * pose(0.3 * kDeg * normal(rng), Eigen::Vector3d::Zero());
       const LoopEdgeId l = graph.addLoopEdge(static_cast<PoseGraphNodeId>(match), id, rel);
       ++loops;
-      // As PoseGraphManager::planSolve after a loop that is not local (the bench does not model
+      // As SolveScheduler::planSolve after a loop that is not local (the bench does not model
       // local loop solves, PoseGraphOptions::loop_local_solve_max_sigmas).
       solve(options.loop_solve_from_earliest_node ? match : 0, l, &loop_t);
     } else if (since_solve >= 10) {

@@ -1,0 +1,107 @@
+#pragma once
+/// @file pose_graph_outputs.h
+/// @brief What PoseGraphManager hands out (keyframe poses, loop edges, map contents, stats,
+/// optimisation timings) and why it optimised. Its own header so that the manager's parts
+/// (PoseGraphManagerCore, SolveScheduler, PoseGraphThreadRunner) share them without the facade.
+
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vims_pose_graph/pose_graph.h"
+
+namespace vims {
+
+/// An optimised keyframe pose (a line of global.tum).
+struct KeyframePose {
+  PoseGraphNodeId node = 0;
+  double t = 0.0;
+  uint32_t vio_session = 0;
+  bool loaded = false;  ///< from a loaded map (another run)
+  Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+};
+
+struct LoopEdgeInfo {
+  LoopEdgeId id = 0;
+  PoseGraphNodeId match = 0;
+  PoseGraphNodeId query = 0;
+  double t_match = 0.0;
+  double t_query = 0.0;
+  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d p_w_match = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_w_query = Eigen::Vector3d::Zero();
+  bool enabled = true;
+};
+
+/// Map contents for visualisation (rviz markers).
+struct VisualSubmapMarker {
+  PoseGraphNodeId node = 0;
+  double t = 0.0;
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();
+  size_t num_keypoints = 0;
+  bool loaded = false;
+};
+struct MagneticSubmapMarker {
+  uint32_t id = 0;
+  PoseGraphNodeId tied_node = 0;
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  ///< the tied keyframe's optimised position
+  double radius_m = 0.0;
+  Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< [T]
+  std::vector<PoseGraphNodeId> clustered;  ///< visual submaps within radius + cluster margin
+};
+struct MapContents {
+  std::vector<VisualSubmapMarker> visual;
+  std::vector<MagneticSubmapMarker> magnetic;
+};
+
+struct PoseGraphManagerStats {
+  size_t keyframes = 0;           ///< accepted into the graph (this run)
+  size_t keyframes_rejected = 0;  ///< non-finite pose, time not increasing
+  size_t empty_keyframes = 0;     ///< no visual submap (no image / no corners)
+  /// Keyframes whose visual submap was not stored: an older one of the same place already is
+  /// (LoopDetectorOptions::redundant_submap_radius_m); they still ran their loop query.
+  size_t culled_submaps = 0;
+  size_t loaded_keyframes = 0;
+  size_t sessions = 0;            ///< of this run
+  size_t loop_queries = 0;
+  size_t loop_attempts = 0;
+  size_t loops_accepted = 0;
+  size_t yaw_factors = 0;
+  size_t magnetic_submaps = 0;
+  size_t optimisations = 0;
+  bool relocalised = false;
+};
+
+/// Why the manager optimised. kDeferredLoops: the solve from the earliest node of the loops that
+/// local loop solves corrected (PoseGraphOptions::loop_local_solve_max_sigmas).
+enum class OptimisationTrigger { kLoop, kPeriodic, kDeferredLoops, kFinish };
+std::string toString(OptimisationTrigger trigger);
+
+/// One solve of one component (benchmarks, replay; docs/pose_graph.md, "Cost of the optimisation").
+struct OptimisationRecord {
+  OptimisationTrigger trigger = OptimisationTrigger::kPeriodic;
+  double t_keyframe = 0.0;    ///< time of the newest keyframe when it ran
+  double solve_ms = 0.0;      ///< PoseGraph4Dof::solve, wall clock
+  double solve_cpu_ms = 0.0;  ///< its CPU time on the calling thread (Ceres runs num_threads = 1 by default)
+  /// After new loops: the largest whitened residual [sigmas] of those loops at the poses the
+  /// solve started from, and whether it was a local loop solve (see PoseGraphOptions).
+  double max_new_loop_sigmas = 0.0;
+  bool local_loop_solve = false;
+  PoseGraphReport report;     ///< without loop residuals
+};
+
+/// Timing of the optimisations so far.
+struct PoseGraphTimings {
+  std::vector<OptimisationRecord> solves;
+  /// Per accepted loop: wall time from its acceptance to the applied result of the first
+  /// optimisation that included it [ms] (the loop correction latency).
+  std::vector<double> loop_correction_ms;
+  /// The same in CPU time of the thread that accepted the loop and solved [ms]: synchronous mode
+  /// only (empty otherwise), where it is not inflated by other jobs on the machine.
+  std::vector<double> loop_correction_cpu_ms;
+};
+
+}  // namespace vims

@@ -1,0 +1,522 @@
+#include "pose_graph_manager_core.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <stdexcept>
+
+#include "vims_pose_graph/angles.h"
+
+namespace vims {
+
+namespace {
+constexpr const char* kComponent = "pose_graph_manager";
+constexpr double kDeg = M_PI / 180.0;
+
+bool isValidPose(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3d R = T.linear();
+  return T.translation().allFinite() && R.allFinite() &&
+         (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
+}
+
+double yawOf(const Eigen::Matrix3d& R) { return yawPitchRollFromRotation(R).yaw; }
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Construction
+// ---------------------------------------------------------------------------------------------
+
+PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& options, const SequenceConfig& sequence,
+                                           std::shared_ptr<const BinaryVocabulary> vocabulary, LoggerPtr logger)
+    : options_(options),
+      mode_(options.modeSettings()),
+      sequence_(sequence),
+      vocabulary_(std::move(vocabulary)),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()),
+      describer_(options.featureOptions(), options.loop.harris_threshold, sequence.camera,
+                 options.loop.submap_include_tracked_corners),
+      detector_(options.loop, options.magnetic, options.modeSettings(), sequence.camera, logger_,
+                options.featureOptions()),
+      map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
+      magnetic_builder_(options.magnetic),
+      scheduler_(options, logger_, map_, run_nodes_) {
+  options_.validate();
+  describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
+                             options_.loop.submap_corner_max_level);
+  describer_.setDenseCornersPerLevel(options_.loop.submap_dense_corners_per_level);
+  describer_.setSeabedCorners(options_.loop.query_seabed_corners, options_.loop.submap_corner_min_distance_px,
+                              options_.loop.submap_corner_max_level);
+  if (!vocabulary_ || vocabulary_->empty())
+    throw std::invalid_argument("PoseGraphManager: no vocabulary (load " + options_.vocabularyPath() + ")");
+  if (vocabulary_->descriptorType() != toString(mode_.descriptor))
+    throw std::invalid_argument("PoseGraphManager: mode '" + toString(options_.mode) + "' needs a '" +
+                                toString(mode_.descriptor) + "' vocabulary, got a '" + vocabulary_->descriptorType() +
+                                "' one");
+}
+
+void PoseGraphManagerCore::handOptimisationRequestsTo(std::function<void(OptimisationTrigger)> handler) {
+  optimisation_handler_ = std::move(handler);
+}
+
+void PoseGraphManagerCore::requestOptimisation(OptimisationTrigger trigger) {
+  scheduler_.optimisationRequested();
+  if (optimisation_handler_)
+    optimisation_handler_(trigger);
+  else
+    scheduler_.solveNow(trigger);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs
+// ---------------------------------------------------------------------------------------------
+
+KeyframeDescription PoseGraphManagerCore::describe(const KeyframeData& kf) {
+  if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) return {};
+  // Submap, tracked points and (query_seabed_corners, via setSeabedCorners) seabed corners in
+  // one pass: one pyramid, corner response and ORB description for the keyframe.
+  return describer_.describeKeyframeAndSeabed(kf.image, kf.features, kf.T_odom_b * sequence_.camera.T_b_c,
+                                              vocabulary_.get());
+}
+
+void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescription description) {
+  VisualSubmap& submap = description.submap;
+  if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) {
+    ++stats_.keyframes_rejected;
+    logger_->warnThrottled(kComponent, "bad_keyframe", std::isfinite(kf.t) ? kf.t : 0.0, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " dropped: non-finite time or invalid pose"));
+    return;
+  }
+  if (!run_nodes_.empty() && !(kf.t > map_.node(run_nodes_.back()).pose.t)) {
+    ++stats_.keyframes_rejected;
+    logger_->warnThrottled(kComponent, "keyframe_time", kf.t, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " dropped: not after the previous keyframe (t="
+                                    << map_.node(run_nodes_.back()).pose.t << ")"));
+    return;
+  }
+  const bool new_session = !current_session_ || kf.session != current_vio_session_;
+  const bool has_previous = !run_nodes_.empty();
+  const PoseGraphNodeId previous = has_previous ? run_nodes_.back() : 0;
+  Eigen::Vector3d p_w_b;
+  double yaw_w_b = 0.0;
+  uint32_t session = 0;
+  if (new_session) {
+    session = map_.addSession(kf.session, false);
+    if (has_previous) {
+      // A VIO reset: the new odom frame is unrelated to the old one, but the vehicle is where
+      // it was a moment ago; start the new chain there (and link it with a weak edge below).
+      const MapNode& prev = map_.node(previous);
+      p_w_b = prev.pose.p_w_b;
+      yaw_w_b = prev.pose.yaw_w_b;
+      logger_->warn(kComponent, VIMS_STR("VIO session " << current_vio_session_ << " -> " << kf.session << " at t="
+                                         << kf.t << ": new chain, linked to the previous one by a weak prior"));
+    } else {
+      // The run's first keyframe: the map frame starts as its VIO frame (or, with a loaded map,
+      // as a provisional frame until the first loop into the map relocalises the run).
+      p_w_b = kf.T_odom_b.translation();
+      yaw_w_b = yawOf(kf.T_odom_b.linear());
+    }
+    current_session_ = session;
+    current_vio_session_ = kf.session;
+    ++stats_.sessions;
+  } else {
+    session = *current_session_;
+    const Eigen::Isometry3d T_w_b = map_.T_map_odom(previous) * kf.T_odom_b;
+    p_w_b = T_w_b.translation();
+    yaw_w_b = yawOf(T_w_b.linear());
+  }
+  const bool has_visual = !submap.empty() && !submap.bow.empty();
+  BowVector bow = submap.bow;
+  // Re-flying a mapped place: the node, its edges and yaw factor are added and the keyframe
+  // still queries (with its own described points and BoW vector, kept in `pending` below), but
+  // its keypoints and descriptors are not stored and it is not a loop candidate (no entry in
+  // the BoW database). Its BoW vector (~5 KB against ~200 KB for a whole submap) stays in the
+  // node unless keep_culled_bow_vectors is false, so that place recognition can be evaluated on
+  // every keyframe of a run (vims_eval place-recognition). The run's first keyframe has no component
+  // to compare with (a loaded map is in another one until relocalisation).
+  const bool culled = has_visual && has_previous &&
+                      submapIsRedundant(static_cast<PoseGraphNodeId>(map_.numNodes()), kf.t, p_w_b, previous);
+  if (culled) {
+    VisualSubmap bow_only;
+    if (options_.loop.keep_culled_bow_vectors) bow_only.bow = submap.bow;
+    submap = std::move(bow_only);
+    ++stats_.culled_submaps;
+  }
+  const PoseGraphNodeId id = map_.addNode(kf.t, session, kf.T_odom_b, p_w_b, yaw_w_b, std::move(submap), false);
+  if (has_previous) {
+    if (new_session) {
+      const double dt = std::max(0.0, kf.t - map_.node(previous).pose.t);
+      const double sigma_p = options_.session_link_position_sigma_m + options_.session_link_position_sigma_per_s * dt;
+      const double sigma_yaw =
+          std::min(M_PI, options_.session_link_yaw_sigma_rad + options_.session_link_yaw_sigma_per_s_rad * dt);
+      map_.addSessionLink(previous, id, sigma_p, sigma_yaw);
+    } else {
+      map_.addSequentialEdge(previous, id);
+    }
+  }
+  if (kf.port_depth && sequence_.pressure) map_.addDepthMeasurement(id, *kf.port_depth, sequence_.pressure->T_b_p.translation());
+  run_nodes_.push_back(id);
+  latest_keyframe_t_ = kf.t;
+  ++stats_.keyframes;
+  if (!has_visual) {
+    ++stats_.empty_keyframes;
+    logger_->warnThrottled(kComponent, "empty_keyframe", kf.t, 5.0,
+                           VIMS_STR("keyframe at t=" << kf.t << " has no usable image corners (empty or dark image):"
+                                    << " pose-graph node without visual submap"));
+  }
+  PendingKeyframe pending;
+  pending.node = id;
+  pending.t = kf.t;
+  pending.bow = std::move(bow);
+  pending.points = std::move(description.points);
+  pending.seabed_points = std::move(description.seabed_points);
+  pending.has_visual = has_visual;
+  pending_.push_back(std::move(pending));
+  scheduler_.keyframeAdded();
+  processReady(false);
+  if (const std::optional<OptimisationTrigger> trigger = scheduler_.triggerAfterKeyframe())
+    requestOptimisation(*trigger);
+}
+
+bool PoseGraphManagerCore::submapIsRedundant(PoseGraphNodeId new_node, double t, const Eigen::Vector3d& p_w_b,
+                                             PoseGraphNodeId component_node) const {
+  const LoopDetectorOptions& o = options_.loop;
+  if (!(o.redundant_submap_radius_m > 0.0)) return false;
+  const double r2 = o.redundant_submap_radius_m * o.redundant_submap_radius_m;
+  const uint32_t component = map_.componentOf(component_node);
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    if (n.bow_image < 0) continue;  // no visual submap (culled, empty image)
+    if ((n.pose.p_w_b.head<2>() - p_w_b.head<2>()).squaredNorm() > r2) continue;
+    if (std::abs(n.pose.p_w_b.z() - p_w_b.z()) > o.redundant_submap_max_height_difference_m) continue;
+    // Not recent, with the loop candidates' exclusion: the VIO's own latest keyframes overlap
+    // by construction and would cull each other before any of them could be a loop candidate.
+    if (isRecentKeyframe(o, map_, new_node, t, i)) continue;
+    if (map_.componentOf(i) != component) continue;
+    return true;
+  }
+  return false;
+}
+
+void PoseGraphManagerCore::addSignature(const SignatureWindow& w) {
+  if (!mode_.magnetic_stage || !std::isfinite(w.t)) return;
+  if (w.t < latest_signature_t_) {
+    logger_->warnThrottled(kComponent, "signature_time", w.t, 10.0,
+                           VIMS_STR("signature window at t=" << w.t << " dropped: older than the previous one (t="
+                                    << latest_signature_t_ << ")"));
+    return;
+  }
+  StoredWindow s;
+  s.t = w.t;
+  s.valid = w.valid && w.amplitude_enu.allFinite();
+  s.amplitude_enu = s.valid ? w.amplitude_enu : Eigen::Vector3d::Zero();
+  windows_.push_back(s);
+  unplaced_.push_back(s);
+  latest_signature_t_ = w.t;
+  processReady(false);
+}
+
+void PoseGraphManagerCore::addGeomagnetic(double t, const Eigen::Vector3d& field_body) {
+  if (!mode_.geomagnetic_yaw || !std::isfinite(t)) return;
+  if (!field_body.allFinite()) {
+    logger_->warnThrottled(kComponent, "geomagnetic_nan", t, 10.0, "non-finite geomagnetic field ignored");
+    return;
+  }
+  if (t < latest_geomagnetic_t_) return;
+  geomagnetic_.push_back(GeomagneticMeasurement{t, field_body});
+  latest_geomagnetic_t_ = t;
+  processReady(false);
+}
+
+void PoseGraphManagerCore::finish() {
+  processReady(true);
+  if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
+  if (map_.numNodes() > 0) requestOptimisation(OptimisationTrigger::kFinish);
+}
+
+void PoseGraphManagerCore::processReady(bool flush) {
+  placeSignatures(flush);
+  while (!pending_.empty()) {
+    const PendingKeyframe& p = pending_.front();
+    bool ready = flush || latest_keyframe_t_ >= p.t + options_.magnetic_wait_s;
+    if (!ready) {
+      const bool signature_ok =
+          !mode_.magnetic_stage || latest_signature_t_ >= p.t + options_.loop.query_signature_max_dt_s;
+      const bool yaw_ok = !mode_.geomagnetic_yaw || latest_geomagnetic_t_ >= p.t + options_.geomagnetic_max_dt_s;
+      ready = signature_ok && yaw_ok;
+    }
+    if (!ready) break;
+    PendingKeyframe item = std::move(pending_.front());
+    pending_.pop_front();
+    processPending(item);
+  }
+  pruneBuffers();
+}
+
+void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
+  if (mode_.geomagnetic_yaw) {
+    const GeomagneticMeasurement* nearest = nullptr;
+    for (const GeomagneticMeasurement& g : geomagnetic_)
+      if (std::abs(g.t - p.t) <= options_.geomagnetic_max_dt_s &&
+          (nearest == nullptr || std::abs(g.t - p.t) < std::abs(nearest->t - p.t)))
+        nearest = &g;
+    if (nearest != nullptr && map_.addYawMeasurement(p.node, nearest->field_body)) ++stats_.yaw_factors;
+  }
+
+  std::optional<Eigen::Vector3d> signature;
+  bool magnetometer_heard = false;
+  if (mode_.magnetic_stage) {
+    double best_dt = 1e300;
+    for (const StoredWindow& w : windows_) {
+      const double dt = std::abs(w.t - p.t);
+      if (dt > options_.loop.query_signature_max_dt_s) continue;
+      magnetometer_heard = true;
+      if (w.valid && w.amplitude_enu.norm() >= options_.magnetic.min_amplitude_tesla && dt < best_dt) {
+        best_dt = dt;
+        signature = w.amplitude_enu;
+      }
+    }
+    map_.setMagneticCoverage(p.node, magnetometer_heard);
+  }
+  if (!p.has_visual) return;
+  if (mode_.magnetic_stage && !signature) {
+    if (!magnetometer_heard)
+      logger_->warnThrottled(kComponent, "magnetometer_silent", p.t, 10.0,
+                             VIMS_STR(std::fixed << std::setprecision(3) << "no magnetic signature near t=" << p.t
+                                      << " (magnetometer silent): magnetic stage skipped, loops from vision alone"));
+    else
+      logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "no valid signature near t=" << p.t
+                                                    << " (coil not heard): magnetic stage skipped"));
+  }
+
+  LoopQuery query;
+  query.node = p.node;
+  query.t = p.t;
+  query.T_odom_b = map_.node(p.node).pose.T_odom_b;
+  query.bow = std::move(p.bow);
+  query.points = std::move(p.points);
+  if (options_.loop.query_local_map_keyframes > 0) {
+    const uint32_t session = map_.node(p.node).session;
+    DescribedPoints own = query.points;  // the keyframe's own points, for the next queries
+    for (auto it = recent_points_.rbegin(); it != recent_points_.rend(); ++it)
+      if (it->session == session) mergeDescribedPoints(&query.points, it->points);
+    recent_points_.push_back(RecentPoints{p.node, session, std::move(own)});
+    while (recent_points_.size() > static_cast<size_t>(options_.loop.query_local_map_keyframes))
+      recent_points_.pop_front();
+  }
+  query.seabed_points = std::move(p.seabed_points);
+  query.signature_enu = signature;
+  ++stats_.loop_queries;
+  DetectionResult result = detector_.detect(query, map_);
+  attempts_.insert(attempts_.end(), result.attempts.begin(), result.attempts.end());
+  stats_.loop_attempts += result.attempts.size();
+  const std::optional<LoopAttempt> accepted = result.accepted;
+  last_detection_ = std::move(result);
+  if (accepted) acceptLoop(*accepted);
+}
+
+void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
+  const PoseGraphNodeId m = a.match_node;
+  const PoseGraphNodeId q = a.query_node;
+  if (!map_.sameComponent(m, q)) {
+    // The loop joins two components whose frames are unrelated (a run and a loaded map before
+    // relocalisation): move one rigidly (4-DoF) so the loop holds, then join them. The
+    // reference component (the loaded map's frame) never moves.
+    const MapNode& nm = map_.node(m);
+    const MapNode& nq = map_.node(q);
+    const RelativePose4Dof z = relativePose4DofFromRelative(a.T_match_query, nm.pose.pitch, nm.pose.roll);
+    const bool q_in_reference = map_.inReferenceComponent(q);
+    const bool m_in_reference = map_.inReferenceComponent(m);
+    if (!q_in_reference) {
+      const double yaw_q = wrapAngle(nm.pose.yaw_w_b + z.yaw_i_j);
+      const Eigen::Vector3d p_q = nm.pose.p_w_b + rotationZ(nm.pose.yaw_w_b) * z.p_li_j;
+      map_.moveComponent(map_.componentOf(q), correctionBetween(nq.pose.p_w_b, nq.pose.yaw_w_b, p_q, yaw_q));
+    } else {
+      const double yaw_m = wrapAngle(nq.pose.yaw_w_b - z.yaw_i_j);
+      const Eigen::Vector3d p_m = nq.pose.p_w_b - rotationZ(yaw_m) * z.p_li_j;
+      map_.moveComponent(map_.componentOf(m), correctionBetween(nm.pose.p_w_b, nm.pose.yaw_w_b, p_m, yaw_m));
+    }
+    if ((q_in_reference || m_in_reference) && map_loaded_ && !stats_.relocalised) {
+      stats_.relocalised = true;
+      logger_->info(kComponent, VIMS_STR("relocalised into the loaded map at t=" << a.t_query << " (match t="
+                                         << a.t_match << ", " << a.inliers << " inliers)"));
+    }
+  }
+  const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query);
+  ++stats_.loops_accepted;
+  scheduler_.loopAccepted(loop_id, m, q);
+  logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
+                                                 << " t_match=" << a.t_match << " inliers=" << a.inliers
+                                                 << " bow=" << a.bow_score));
+  requestOptimisation(OptimisationTrigger::kLoop);
+}
+
+void PoseGraphManagerCore::placeSignatures(bool flush) {
+  auto nodeTime = [&](PoseGraphNodeId id) { return map_.node(id).pose.t; };
+  while (!unplaced_.empty()) {
+    if (run_nodes_.empty()) {
+      if (!flush) return;  // keyframes may still come
+      unplaced_.clear();
+      return;
+    }
+    const StoredWindow w = unplaced_.front();
+    // Wait for the keyframe after the window, so it is interpolated rather than extrapolated.
+    if (w.t > nodeTime(run_nodes_.back()) && !flush) return;
+    unplaced_.pop_front();
+    if (!w.valid) {
+      addMagneticDraft(magnetic_builder_.breakGroup());
+      continue;
+    }
+    const auto after = std::upper_bound(run_nodes_.begin(), run_nodes_.end(), w.t,
+                                        [&](double t, PoseGraphNodeId id) { return t < nodeTime(id); });
+    std::optional<PoseGraphNodeId> a, b;
+    if (after != run_nodes_.begin()) a = *(after - 1);
+    if (after != run_nodes_.end()) b = *after;
+    PlacedSignature ps;
+    ps.t = w.t;
+    ps.signature_enu = w.amplitude_enu;
+    bool placed = false;
+    if (a && b && map_.node(*a).session == map_.node(*b).session) {
+      const MapNode& na = map_.node(*a);
+      const MapNode& nb = map_.node(*b);
+      const double span = nb.pose.t - na.pose.t;
+      const double f = span > 0.0 ? (w.t - na.pose.t) / span : 0.0;
+      ps.p_odom = (1.0 - f) * na.pose.T_odom_b.translation() + f * nb.pose.T_odom_b.translation();
+      ps.session = na.session;
+      ps.nearest_node = f <= 0.5 ? *a : *b;
+      placed = true;
+    } else {
+      for (const std::optional<PoseGraphNodeId>& c : {a, b}) {
+        if (!c || std::abs(nodeTime(*c) - w.t) > options_.signature_max_extrapolation_s) continue;
+        if (placed && std::abs(nodeTime(*c) - w.t) >= std::abs(nodeTime(ps.nearest_node) - w.t)) continue;
+        ps.p_odom = map_.node(*c).pose.T_odom_b.translation();
+        ps.session = map_.node(*c).session;
+        ps.nearest_node = *c;
+        placed = true;
+      }
+    }
+    if (!placed) {
+      addMagneticDraft(magnetic_builder_.breakGroup());
+      continue;
+    }
+    addMagneticDraft(magnetic_builder_.add(ps));
+  }
+}
+
+void PoseGraphManagerCore::addMagneticDraft(const std::optional<MagneticSubmapDraft>& draft) {
+  if (!draft) return;
+  map_.addMagneticSubmap(*draft);
+  ++stats_.magnetic_submaps;
+}
+
+void PoseGraphManagerCore::pruneBuffers() {
+  // Keep what a waiting keyframe may still need (its time +- the association windows) and at
+  // most a minute of history when no keyframe comes (VIO not initialised yet).
+  const double margin = std::max(options_.loop.query_signature_max_dt_s, options_.geomagnetic_max_dt_s) + 1.0;
+  double horizon = pending_.empty() ? latest_keyframe_t_ - margin : pending_.front().t - margin;
+  horizon = std::max(horizon, std::max(latest_signature_t_, latest_geomagnetic_t_) - 60.0);
+  while (!windows_.empty() && windows_.front().t < horizon) windows_.pop_front();
+  while (!geomagnetic_.empty() && geomagnetic_.front().t < horizon) geomagnetic_.pop_front();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Map files
+// ---------------------------------------------------------------------------------------------
+
+void PoseGraphManagerCore::loadMap(const std::string& path) {
+  if (!run_nodes_.empty() || map_loaded_)
+    throw std::logic_error("PoseGraphManager::loadMap: load the map before the first keyframe (and only once)");
+  map_.load(path);
+  map_loaded_ = true;
+  stats_.loaded_keyframes = map_.numNodes();
+}
+
+void PoseGraphManagerCore::saveMap(const std::string& path) const {
+  map_.save(path, options_.vocabularyPath());
+  logger_->info(kComponent, VIMS_STR("saved map '" << path << "': " << map_.numNodes() << " keyframes, "
+                                     << map_.loopEdges().size() << " loops, " << map_.magneticSubmaps().size()
+                                     << " magnetic submaps"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs
+// ---------------------------------------------------------------------------------------------
+
+std::vector<KeyframePose> PoseGraphManagerCore::keyframePoses(bool include_loaded) const {
+  std::vector<KeyframePose> out;
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    const MapSession& s = map_.sessions()[n.session];
+    if (s.loaded && !include_loaded) continue;
+    KeyframePose k;
+    k.node = i;
+    k.t = n.pose.t;
+    k.vio_session = s.vio_session;
+    k.loaded = s.loaded;
+    k.T_w_b = n.pose.T_w_b();
+    out.push_back(k);
+  }
+  return out;
+}
+
+Eigen::Isometry3d PoseGraphManagerCore::T_map_odom() const {
+  if (run_nodes_.empty()) return Eigen::Isometry3d::Identity();
+  return map_.T_map_odom(run_nodes_.back());
+}
+
+std::vector<LoopEdgeInfo> PoseGraphManagerCore::loopEdges() const {
+  std::vector<LoopEdgeInfo> out;
+  for (const LoopEdge& e : map_.loopEdges()) {
+    LoopEdgeInfo i;
+    i.id = e.id;
+    i.match = e.match;
+    i.query = e.query;
+    i.t_match = map_.node(e.match).pose.t;
+    i.t_query = map_.node(e.query).pose.t;
+    i.T_match_query = e.T_match_query;
+    i.p_w_match = map_.node(e.match).pose.p_w_b;
+    i.p_w_query = map_.node(e.query).pose.p_w_b;
+    i.enabled = e.enabled;
+    out.push_back(i);
+  }
+  return out;
+}
+
+std::vector<LoopAttempt> PoseGraphManagerCore::takeNewLoopAttempts() {
+  std::vector<LoopAttempt> out;
+  out.swap(attempts_);
+  return out;
+}
+
+MapContents PoseGraphManagerCore::mapContents() const {
+  MapContents c;
+  for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
+    const MapNode& n = map_.node(i);
+    if (n.visual.empty()) continue;
+    VisualSubmapMarker v;
+    v.node = i;
+    v.t = n.pose.t;
+    v.p_w = n.pose.p_w_b;
+    v.num_keypoints = n.visual.keypoints.size();
+    v.loaded = map_.sessions()[n.session].loaded;
+    c.visual.push_back(v);
+  }
+  for (const MagneticSubmap& s : map_.magneticSubmaps()) {
+    MagneticSubmapMarker m;
+    m.id = s.id;
+    m.tied_node = s.tied_node;
+    m.p_w = map_.magneticSubmapPosition(s);
+    m.radius_m = s.radius_m;
+    m.signature_enu = s.signature_enu;
+    m.clustered = map_.clusteredNodes(s, options_.magnetic.cluster_margin_m);
+    c.magnetic.push_back(m);
+  }
+  return c;
+}
+
+PoseGraphManagerStats PoseGraphManagerCore::stats() const {
+  PoseGraphManagerStats stats = stats_;
+  stats.optimisations = scheduler_.optimisations();
+  return stats;
+}
+
+}  // namespace vims
