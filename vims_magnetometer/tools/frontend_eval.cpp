@@ -16,6 +16,7 @@
 #include "vims_sim/sim_truth.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
+#include "vims_common/timing.h"
 
 namespace vims {
 namespace frontend_eval {
@@ -44,13 +45,6 @@ std::optional<Eigen::Isometry3d> truthAt(const std::vector<StampedPose>& gt, dou
   T.linear() = a.q.slerp(alpha, b.q).toRotationMatrix();
   T.translation() = (1.0 - alpha) * a.p + alpha * b.p;
   return T;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
 }
 
 std::string fmt(double v, int decimals = 3) {

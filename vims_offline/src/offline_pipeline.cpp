@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "vims_common/config_reader.h"
+#include "vims_common/timing.h"
 
 namespace fs = std::filesystem;
 
@@ -53,25 +54,6 @@ class ProgressPrinter {
 
 using Clock = std::chrono::steady_clock;
 
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-/// CPU time of the calling thread [s]: unlike wall time it does not grow when other processes
-/// compete for the cores, so it measures the work itself.
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-/// Nearest-rank percentile (q in [0, 1]); 0 for an empty set.
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(values.size())));
-  return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
-}
 
 }  // namespace
 
@@ -354,8 +336,9 @@ void OfflinePipeline::finishPoseGraph(OfflineSummary* summary) {
   if (!options_.map_save.empty()) pose_graph_->saveMap(options_.map_save);
   summary->pose_graph = pose_graph_->stats();
   const std::vector<double> loop_correction_ms = pose_graph_->timings(pose_graph_solves_seen_).loop_correction_ms;
-  summary->loop_correction_ms_p50 = percentile(loop_correction_ms, 0.5);
-  summary->loop_correction_ms_p99 = percentile(loop_correction_ms, 0.99);
+  // 0 without loops: the summary's figures stay numbers.
+  summary->loop_correction_ms_p50 = loop_correction_ms.empty() ? 0.0 : percentile(loop_correction_ms, 0.5);
+  summary->loop_correction_ms_p99 = loop_correction_ms.empty() ? 0.0 : percentile(loop_correction_ms, 0.99);
 }
 
 OfflineSummary OfflinePipeline::run() {

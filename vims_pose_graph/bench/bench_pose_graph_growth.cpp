@@ -24,24 +24,13 @@
 
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/pose_graph.h"
+#include "vims_common/timing.h"
 
 using namespace vims;
 
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-double threadCpuSeconds() {
-  timespec ts{};
-  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(std::min<double>(v.size() - 1, std::floor(q * (v.size() - 1) + 0.5)))];
-}
 
 Eigen::Isometry3d pose(double yaw, const Eigen::Vector3d& p) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();

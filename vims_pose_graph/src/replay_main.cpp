@@ -23,7 +23,9 @@
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
+#include "vims_common/timing.h"
 #include "vims_common/trajectory_io.h"
+#include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/input_recording.h"
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/loop_detector.h"
@@ -62,14 +64,6 @@ bool gtPoseAt(const std::vector<StampedPose>& gt, double t, Eigen::Isometry3d* T
   T->translation() = (1.0 - s) * a.p + s * b.p;
   T->linear() = a.q.slerp(s, b.q).normalized().toRotationMatrix();
   return true;
-}
-
-double yawOf(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 struct RecordedKeyframe {
@@ -310,12 +304,12 @@ int main(int argc, char** argv) {
         std::vector<double> sorted = err;
         std::sort(sorted.begin(), sorted.end());
         acc << std::fixed << std::setprecision(3) << a.data.t << "," << a.data.features.size() << "," << err.size()
-            << "," << median(err) << "," << (sorted.empty() ? std::nan("") : sorted[sorted.size() * 9 / 10]) << ","
-            << (b.T_w_b_gt.translation() - a.T_w_b_gt.translation()).norm() << "," << median(depth) << ",";
-        const double mr = median(ratio);
+            << "," << percentile(err, 0.5) << "," << (sorted.empty() ? std::nan("") : sorted[sorted.size() * 9 / 10]) << ","
+            << (b.T_w_b_gt.translation() - a.T_w_b_gt.translation()).norm() << "," << percentile(depth, 0.5) << ",";
+        const double mr = percentile(ratio, 0.5);
         std::vector<double> dev;
         for (double r : ratio) dev.push_back(std::abs(r - mr));
-        acc << mr << "," << median(dev) << "\n";
+        acc << mr << "," << percentile(dev, 0.5) << "\n";
       }
     }
 
@@ -434,12 +428,14 @@ int main(int argc, char** argv) {
             }
         }
         const double dyaw =
-            std::remainder(yawOf(kq.T_w_b_gt.linear()) - yawOf(kc.T_w_b_gt.linear()), 2.0 * M_PI) * 180.0 / M_PI;
+            std::remainder(yawPitchRollFromRotation(kq.T_w_b_gt.linear()).yaw -
+                              yawPitchRollFromRotation(kc.T_w_b_gt.linear()).yaw,
+                          2.0 * M_PI) * 180.0 / M_PI;
         diag << std::fixed << std::setprecision(3) << kq.data.t << "," << kc.data.t << "," << best_d << "," << dyaw
              << "," << kq.T_w_b_gt.translation().z() << "," << kq.data.features.size() << ","
              << query.points.numPoints() << "," << query.points.descriptors.size() << "," << sub.keypoints.size() << ","
              << visible << "," << repeatable << "," << matches.size() << "," << epi_ok << "," << reproj_ok << ","
-             << median(reproj_epi_ok) << "," << toString(v.stage) << ","
+             << percentile(reproj_epi_ok, 0.5) << "," << toString(v.stage) << ","
              << (v.stage == LoopStage::kMatching ? v.num_matches : v.num_inliers) << "," << rank << "," << score
              << "," << rep_orb << "," << rep_tracked << "," << rep_dense << "," << rep_dense6 << "\n";
       }

@@ -4,17 +4,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "vims_common/wrap_angle.h"
+
 namespace vims {
 namespace sim {
-namespace {
-
-double wrapAngle(double a) {
-  while (a > M_PI) a -= 2.0 * M_PI;
-  while (a <= -M_PI) a += 2.0 * M_PI;
-  return a;
-}
-
-}  // namespace
 
 void PlanarPath::append(double length, double curvature) {
   if (length <= 0.0) return;

@@ -20,20 +20,12 @@
 #include "vims_ros/sequence_bag_reader.h"
 #include "vims_tracking/feature_tracker.h"
 #include "vims_tracking/tracker_options.h"
+#include "vims_common/timing.h"
+
+using vims::percentile;
+using vims::threadCpuSeconds;
 
 namespace {
-
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-double percentile(std::vector<double> values, double fraction) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<std::size_t>(fraction * (values.size() - 1) + 0.5))];
-}
 
 /// FNV-1a over the bytes of a value: a checksum of the tracker's outputs.
 template <typename T>

@@ -5,6 +5,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "vims_tracking/tracking_stages.h"
+#include "vims_common/timing.h"
 
 namespace vims {
 
@@ -13,10 +14,6 @@ namespace {
 constexpr const char* kComponent = "tracker";
 
 using Clock = std::chrono::steady_clock;
-
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 Eigen::Vector2d toEigen(const cv::Point2f& p) { return Eigen::Vector2d(p.x, p.y); }
 

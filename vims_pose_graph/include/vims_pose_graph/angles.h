@@ -11,10 +11,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-namespace vims {
+#include "vims_common/wrap_angle.h"  // wrapAngle, used with the yaws below
 
-/// Wraps an angle to [-pi, pi].
-double wrapAngle(double angle);
+namespace vims {
 
 /// Rotation about +z by `yaw`.
 Eigen::Matrix3d rotationZ(double yaw);

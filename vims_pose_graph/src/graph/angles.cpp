@@ -4,11 +4,6 @@
 
 namespace vims {
 
-double wrapAngle(double angle) {
-  // std::remainder returns angle - n * 2pi with n the nearest integer: a result in [-pi, pi].
-  return std::remainder(angle, 2.0 * M_PI);
-}
-
 Eigen::Matrix3d rotationZ(double yaw) {
   const double c = std::cos(yaw), s = std::sin(yaw);
   Eigen::Matrix3d R;

@@ -19,7 +19,6 @@ bool isValidPose(const Eigen::Isometry3d& T) {
          (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 && R.determinant() > 0.0;
 }
 
-double yawOf(const Eigen::Matrix3d& R) { return yawPitchRollFromRotation(R).yaw; }
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -113,7 +112,7 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
       // The run's first keyframe: the map frame starts as its VIO frame (or, with a loaded map,
       // as a provisional frame until the first loop into the map relocalises the run).
       p_w_b = kf.T_odom_b.translation();
-      yaw_w_b = yawOf(kf.T_odom_b.linear());
+      yaw_w_b = yawPitchRollFromRotation(kf.T_odom_b.linear()).yaw;
     }
     current_session_ = session;
     current_vio_session_ = kf.session;
@@ -122,7 +121,7 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
     session = *current_session_;
     const Eigen::Isometry3d T_w_b = map_.T_map_odom(previous) * kf.T_odom_b;
     p_w_b = T_w_b.translation();
-    yaw_w_b = yawOf(T_w_b.linear());
+    yaw_w_b = yawPitchRollFromRotation(T_w_b.linear()).yaw;
   }
   const bool has_visual = !submap.empty() && !submap.bow.empty();
   BowVector bow = submap.bow;

@@ -5,18 +5,12 @@
 #include <stdexcept>
 
 #include "vims_pose_graph/pose_graph_factors.h"
+#include "vims_common/timing.h"
 
 namespace vims {
 
 namespace {
 constexpr const char* kComponent = "pose_graph_manager";
-
-/// CPU time of the calling thread [s] (not inflated by other jobs on the machine).
-double threadCpuSeconds() {
-  timespec ts{};
-  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 }  // namespace
 
 std::string toString(OptimisationTrigger trigger) {
