@@ -192,8 +192,13 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
 
 
 SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
-  SeabedTies seabed{options_.use_sonar, sequence_.sonar.T_b_s, sonar_sigma_, &options_.factors.sonar_depth,
-                    seabed_fix_ ? &*seabed_fix_ : nullptr, sloped};
+  SeabedTies seabed;
+  seabed.use_sonar = options_.use_sonar;
+  seabed.T_b_s = sequence_.sonar.T_b_s;
+  seabed.sonar_sigma = sonar_sigma_;
+  seabed.options = &options_.factors.sonar_depth;
+  seabed.carried = seabed_fix_ ? &*seabed_fix_ : nullptr;
+  seabed.sloped = sloped;
   seabed.carried_features = carriedFeatureCount(seabed);
   const std::vector<double> distances = countSonarFeatures();
   if (update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit)
