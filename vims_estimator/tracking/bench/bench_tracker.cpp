@@ -15,12 +15,13 @@
 #include <vector>
 
 #include "vims_common/config_reader.h"
+#include "vims_common/fnv1a.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
+#include "vims_common/timing.h"
 #include "vims_ros/sequence_bag_reader.h"
 #include "vims_tracking/feature_tracker.h"
 #include "vims_tracking/tracker_options.h"
-#include "vims_common/timing.h"
 
 using vims::percentile;
 using vims::threadCpuSeconds;
@@ -30,9 +31,9 @@ namespace {
 /// FNV-1a over the bytes of a value: a checksum of the tracker's outputs.
 template <typename T>
 void mix(std::uint64_t* hash, const T& value) {
-  unsigned char bytes[sizeof(T)];
+  std::uint8_t bytes[sizeof(T)];
   std::memcpy(bytes, &value, sizeof(T));
-  for (unsigned char b : bytes) *hash = (*hash ^ b) * 1099511628211ull;
+  *hash = vims::fnv1a64(bytes, sizeof(T), *hash);
 }
 
 int usage() {
@@ -77,7 +78,7 @@ int main(int argc, char** argv) {
       vims::FeatureTracker tracker(config.camera, options);
       std::vector<double> total_ms, preprocess_ms, klt_ms, ransac_ms, detect_ms, cpu_ms;
       long features = 0, detected = 0, lost_klt = 0, rejected_fb = 0, rejected_ransac = 0;
-      std::uint64_t checksum = 1469598103934665603ull;
+      std::uint64_t checksum = vims::kFnv1a64OffsetBasis;
       for (const vims::CameraFrame& frame : frames) {
         const double cpu_start = threadCpuSeconds();
         const vims::TrackedFrame out = tracker.process(frame);

@@ -10,6 +10,8 @@
 #include <random>
 #include <sstream>
 
+#include "vims_common/fnv1a.h"
+
 namespace vims {
 
 // ---------------------------------------------------------------------------------------------
@@ -402,15 +404,6 @@ constexpr size_t kNodeRecordBytes = 4 + kDescriptorBytes;  // parent, descriptor
 constexpr size_t kWordRecordBytes = 4 + 8;                 // leaf node, weight
 // A sanity bound far above any useful vocabulary, so a corrupt count cannot request huge memory.
 constexpr uint32_t kMaxNodes = 50000000u;
-
-uint64_t fnv1a64(const uint8_t* data, size_t size) {
-  uint64_t h = 1469598103934665603ull;
-  for (size_t i = 0; i < size; ++i) {
-    h ^= data[i];
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 class ByteWriter {
  public:
