@@ -200,14 +200,14 @@ SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
   seabed.carried = seabed_fix_ ? &*seabed_fix_ : nullptr;
   seabed.sloped = sloped;
   seabed.carried_features = carriedFeatureCount(seabed);
-  const std::vector<double> distances = countSonarFeatures();
-  if (update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit)
-    updateSeabedRelief(distances, sloped);
+  const bool learn = update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit;
+  const std::vector<double> distances = countSonarFeatures(learn);
+  if (learn) updateSeabedRelief(distances, sloped);
   if (relief_) seabed.relief_per_m = relief_->misfit_per_m;
   return seabed;
 }
 
-std::vector<double> VioEstimator::countSonarFeatures() {
+std::vector<double> VioEstimator::countSonarFeatures(bool with_distances) {
   for (auto& frame : frames_) frame->sonar_features = 0;
   std::vector<double> distances;
   if (!options_.use_sonar) return distances;
@@ -218,6 +218,7 @@ std::vector<double> VioEstimator::countSonarFeatures() {
     const auto obs = a->obs.find(id);
     if (obs == a->obs.end()) continue;
     ++a->sonar_features;
+    if (!with_distances) continue;
     distances.push_back(sonarHitDistance(obs->second.fo, *a->sonar_range, sequence_.sonar.T_b_s, a->T_l_b(), T_bc,
                                          feature.lambda[0], td_[0]));
   }
@@ -295,7 +296,7 @@ void VioEstimator::updateSeabedFix() {
     if (seabed_fix_ && seabed_fix_->t > f.t_state) return;  // an older frame: keep the newer fix
     const Eigen::Isometry3d T_l_b = f.T_l_b();
     SeabedFix fix;
-    fix.height = (T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range))).z();
+    fix.height = seabedSample(f, false)->height;
     fix.xy = T_l_b.translation().head<2>();
     fix.t = f.t_state;
     fix.slope = Eigen::Vector2d(f.slope[0], f.slope[1]);

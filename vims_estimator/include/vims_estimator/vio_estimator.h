@@ -197,9 +197,9 @@ class VioEstimator {
   /// How this solve (update_relief: it also re-learns the relief first) or this
   /// marginalisation ties features to the seabed; counts each frame's sonar-tied features.
   vio_window::SeabedTies seabedTies(bool sloped, bool update_relief);
-  /// Sets each frame's sonar_features; returns the horizontal distances of those features from
-  /// their anchor's hit at the current estimate.
-  std::vector<double> countSonarFeatures();
+  /// Sets each frame's sonar_features; with_distances: also returns the horizontal distances of
+  /// those features from their anchor's hit at the current estimate (only learning needs them).
+  std::vector<double> countSonarFeatures(bool with_distances);
   void updateSeabedRelief(const std::vector<double>& feature_distances, bool sloped);
   /// The seabed point frame f's sonar hit, at the current estimate (nullopt without a range).
   std::optional<SeabedSample> seabedSample(const Frame& f, bool sloped) const;
