@@ -5,7 +5,7 @@ source "$(dirname "$0")/env.sh"
 cd "$VIMS_ROOT"
 JOBS="${JOBS:-$(nproc)}"
 mkdir -p "$VIMS_BUILD"
-cmake -S . -B "$VIMS_BUILD" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-RelWithDebInfo}" \
+cmake -S . -B "$VIMS_BUILD" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" \
   -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 > "$VIMS_BUILD/configure.log" 2>&1 \
   || { cat "$VIMS_BUILD/configure.log"; exit 1; }
 cmake --build "$VIMS_BUILD" -j"$JOBS"
