@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/timing.h"
 #include "vims_eval/association.h"
 #include "vims_eval/metrics.h"
 
@@ -144,6 +145,21 @@ std::vector<LoopRecord> readLoopCsv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open loop log '" + path + "'");
   return parseLoopCsv(in, path);
+}
+
+LoopAccuracy loopAccuracy(const LoopScore& score) {
+  std::vector<double> trans, rot;
+  for (const ScoredLoop& l : score.loops) {
+    if (!l.record.accepted || !l.has_gt) continue;
+    trans.push_back(l.trans_error_m);
+    rot.push_back(l.rot_error_deg);
+  }
+  LoopAccuracy a;
+  a.loops = trans.size();
+  a.trans_error_median_m = percentile(trans, 0.5);
+  a.trans_error_p90_m = percentile(trans, 0.9);
+  a.rot_error_median_deg = percentile(rot, 0.5);
+  return a;
 }
 
 double LoopScore::precision() const {

@@ -252,6 +252,14 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
                 loop_options.trans_tol_m, loop_options.rot_tol_deg, s.verifications, s.accepted, s.correct, s.wrong,
                 s.accepted_no_gt, 100.0 * s.precision(), s.rejected_correct);
   out << buf;
+  const LoopAccuracy accuracy = loopAccuracy(s);
+  if (accuracy.loops > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "   accepted loops against the ground truth: translation error median %.4f m, p90 %.4f m; "
+                  "rotation error median %.3f deg\n",
+                  accuracy.trans_error_median_m, accuracy.trans_error_p90_m, accuracy.rot_error_median_deg);
+    out << buf;
+  }
   for (const auto& l : s.loops) {
     if (!l.record.accepted || !l.has_gt || l.within_tolerance) continue;
     std::snprintf(buf, sizeof(buf), "   wrong loop (line %d): t_query %.3f t_match %.3f error %.3f m %.2f deg stage '%s'\n",
@@ -280,6 +288,10 @@ std::string loopSummaryLine(const LoopEvaluation& ev) {
      << " wrong=" << s.wrong << " accepted_no_gt=" << s.accepted_no_gt << " rejected_correct=" << s.rejected_correct
      << " precision=" << num(s.precision(), 4) << " revisit_events=" << ev.revisits.events
      << " closed=" << ev.revisits.closed << " closed_pct=" << num(ev.revisits.closedPercent(), 2);
+  const LoopAccuracy accuracy = loopAccuracy(s);
+  os << " loop_trans_err_median_m=" << num(accuracy.trans_error_median_m, 4)
+     << " loop_trans_err_p90_m=" << num(accuracy.trans_error_p90_m, 4)
+     << " loop_rot_err_median_deg=" << num(accuracy.rot_error_median_deg, 3);
   return os.str();
 }
 

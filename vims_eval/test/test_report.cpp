@@ -89,6 +89,32 @@ TEST(Report, LoopSummaryLine) {
   EXPECT_EQ(kv.at("closed"), "2");
   EXPECT_EQ(kv.at("closed_pct"), "66.67");
   EXPECT_EQ(kv.at("precision"), "0.8000");
+  EXPECT_EQ(kv.at("loop_trans_err_median_m"), "nan");  // no scored loops in ev.score.loops
+}
+
+TEST(Report, LoopAccuracyOfTheAcceptedLoopsWithGroundTruth) {
+  LoopScore score;
+  auto add = [&](bool accepted, bool has_gt, double trans, double rot) {
+    ScoredLoop l;
+    l.record.accepted = accepted;
+    l.has_gt = has_gt;
+    l.trans_error_m = trans;
+    l.rot_error_deg = rot;
+    score.loops.push_back(l);
+  };
+  for (int i = 1; i <= 11; ++i) add(true, true, 0.001 * i, 0.01 * i);  // 1..11 mm
+  add(false, true, 5.0, 50.0);  // rejected: not an edge
+  add(true, false, 5.0, 50.0);  // no ground truth: not scored
+  const LoopAccuracy a = loopAccuracy(score);
+  EXPECT_EQ(a.loops, 11u);
+  EXPECT_NEAR(a.trans_error_median_m, 0.006, 1e-12);
+  EXPECT_NEAR(a.trans_error_p90_m, 0.010, 1e-12);
+  EXPECT_NEAR(a.rot_error_median_deg, 0.06, 1e-12);
+  LoopEvaluation ev;
+  ev.score = score;
+  const auto kv = parseSummary(loopSummaryLine(ev), "VIMS_EVAL_LOOPS");
+  EXPECT_EQ(kv.at("loop_trans_err_median_m"), "0.0060");
+  EXPECT_EQ(kv.at("loop_trans_err_p90_m"), "0.0100");
 }
 
 TEST(EvalOptions, FromReaderValidatesKeys) {

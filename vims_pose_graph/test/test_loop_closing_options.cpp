@@ -154,7 +154,7 @@ TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
-  EXPECT_STREQ(loopCsvHeader(), "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage");
+  EXPECT_STREQ(loopCsvHeader(), "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,sigma_yaw_deg");
   LoopAttempt a;
   a.t_query = 1700000123.25;
   a.t_match = 1700000001.5;
@@ -165,17 +165,19 @@ TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
   a.mag_distance = 2.5e-8;
   a.bow_score = 0.125;
   a.stage = LoopStage::kAccepted;
+  a.sigma = Eigen::Vector4d(0.02, 0.03, 0.01, 0.5 * M_PI / 180.0);
   const std::string row = formatLoopCsvRow(a);
   EXPECT_EQ(row.substr(0, 52), "1700000123.250000,1700000001.500000,1,0.500000,-1.25");
   EXPECT_NE(row.find(",41,2.500000e-08,0.125000,accepted"), std::string::npos) << row;
   EXPECT_NE(row.find("0.707106781"), std::string::npos) << row;
+  EXPECT_NE(row.find("accepted,0.020000,0.030000,0.010000,0.500000"), std::string::npos) << row;
 
   LoopAttempt b;  // rejected at BoW: no magnetic distance
   b.bow_score = 0.01;
   b.stage = LoopStage::kBow;
   const std::string row_b = formatLoopCsvRow(b);
-  EXPECT_NE(row_b.find(",0,,0.010000,bow"), std::string::npos) << row_b;
-  EXPECT_EQ(std::count(row_b.begin(), row_b.end(), ','), 13);
+  EXPECT_NE(row_b.find(",0,,0.010000,bow,,,,"), std::string::npos) << row_b;  // no PnP: no sigmas
+  EXPECT_EQ(std::count(row_b.begin(), row_b.end(), ','), 17);
 
   const std::string path = tempPath("loops.csv");
   {
@@ -258,6 +260,38 @@ TEST(MapFile, StreamedSaveOfALargeMapEqualsSerialize) {
   EXPECT_NO_THROW(loaded.load(path));
   EXPECT_EQ(loaded.numNodes(), map.numNodes());
   std::remove(path.c_str());
+}
+
+// Loop edge weights: the constant sigmas, or with loop_sigma_from_inliers each loop's own
+// sigmas with the floors added in quadrature; a loop without sigmas keeps the constants.
+TEST(MultiScaleMapLoops, EdgeWeightsFromTheLoopsOwnSigmas) {
+  const auto vocabulary = loadVocabulary("orb_k8l4.vocab");
+  PoseGraphOptions graph;
+  graph.loop_sigma_from_inliers = true;
+  graph.loop_position_sigma_floor_m = 0.004;
+  graph.loop_yaw_sigma_floor_rad = 0.001;
+  MultiScaleMap map(vocabulary, graph, 0.1);
+  const uint32_t s = map.addSession(0, false);
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(0.5 * i, 0.0, 2.0);
+    map.addNode(100.0 + i, s, T, T.translation(), 0.0, VisualSubmap(), false);
+  }
+  Eigen::Isometry3d T_mq = Eigen::Isometry3d::Identity();
+  T_mq.translation() = Eigen::Vector3d(0.2, -0.1, 0.05);
+  map.addLoopEdge(0, 2, T_mq, Eigen::Vector4d(0.003, 0.003, 0.0, 0.0));
+  map.addLoopEdge(0, 1, T_mq);  // no sigmas (e.g. a degenerate refinement)
+  ASSERT_EQ(map.loopEdges().size(), 2u);
+  EXPECT_TRUE(map.loopEdges()[0].sqrt_information.isApprox(Eigen::Vector4d(1 / 0.005, 1 / 0.005, 1 / 0.004, 1 / 0.001), 1e-12));
+  const double ip = 1.0 / graph.loop_position_sigma_m;
+  EXPECT_TRUE(map.loopEdges()[1].sqrt_information.isApprox(Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
+
+  graph.loop_sigma_from_inliers = false;  // the default: constants for every loop
+  MultiScaleMap constant(vocabulary, graph, 0.1);
+  const uint32_t s2 = constant.addSession(0, false);
+  for (int i = 0; i < 2; ++i) constant.addNode(100.0 + i, s2, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), 0.0, VisualSubmap(), false);
+  constant.addLoopEdge(0, 1, T_mq, Eigen::Vector4d(0.003, 0.003, 0.0, 0.0));
+  EXPECT_TRUE(constant.loopEdges()[0].sqrt_information.isApprox(Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
 }
 
 TEST(MapFile, RoundTripIsByteIdentical) {

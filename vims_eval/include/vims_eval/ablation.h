@@ -66,6 +66,23 @@ std::string ablationCsv(const std::vector<AblationRow>& rows);
 /// `VIMS_ABLATION mode=... status=ok|failed correct=... verifications=... trans_rmse_m=... ...`
 std::string ablationSummaryLine(const AblationRow& row);
 
+/// One of the paper's claims about the ablation, checked on the rows.
+struct AblationClaim {
+  std::string name;       ///< e.g. "full_lowest_trans"
+  std::string statement;  ///< the claim in words
+  bool holds = false;
+  std::string detail;     ///< the figures it was judged on
+};
+/// The paper's ablation order, for the rows present (a claim whose modes are missing or failed is
+/// left out): the full system's global trajectory is not worse than its VIO (global / VIO <= 1);
+/// it has the lowest translation RMSE of all modes; w/o Geom. has a larger rotation RMSE; VI-SLAM,
+/// w/o Alter. and w/o ORB each close fewer revisit events than full, or as many with more
+/// verifications.
+std::vector<AblationClaim> ablationClaims(const std::vector<AblationRow>& rows);
+/// The claims as a markdown list, and as `VIMS_ABLATION_ORDER holds=k/n name=0|1 ...`.
+std::string ablationClaimsMarkdown(const std::vector<AblationClaim>& claims);
+std::string ablationClaimsLine(const std::vector<AblationClaim>& claims);
+
 /// What `vims_eval ablation` does.
 struct AblationOptions {
   std::string sequence_dir;

@@ -75,5 +75,16 @@ struct LoopScore {
 LoopScore scoreLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
                      const LoopScoringOptions& options);
 
+/// How far the accepted loops' relative poses are from the ground truth's (the loop edges the
+/// pose graph got; wrong ones included): median and 90th percentile of the translation error
+/// and median of the rotation error. NaN when no accepted loop has ground truth.
+struct LoopAccuracy {
+  std::size_t loops = 0;
+  double trans_error_median_m = 0.0;
+  double trans_error_p90_m = 0.0;
+  double rot_error_median_deg = 0.0;
+};
+LoopAccuracy loopAccuracy(const LoopScore& score);
+
 }  // namespace eval
 }  // namespace vims

@@ -261,6 +261,11 @@ struct LoopDetectorOptions {
   /// sigma. tank750 with the scale-aware matching: the loops found 5-10 deg off were all tilt
   /// errors (0.3-0.8 m off). 0 disables.
   double pnp_max_tilt_error_deg = 2.0;
+  /// Refine an accepted PnP pose with both keyframes' roll and pitch held at their VIO attitudes
+  /// (refineLoopMeasurement): the 4-DoF edge then carries no PnP tilt error turned into a lateral
+  /// shift, and gets a covariance from its inliers (PoseGraphOptions::loop_sigma_from_inliers).
+  /// false = the 6-DoF PnP pose, and every loop edge the constant loop sigmas.
+  bool pnp_known_vertical_refinement = true;
   /// Before the P3P RANSAC, a 2-point RANSAC with the candidate camera's tilt taken from its VIO
   /// attitude (only yaw and position unknown) must find pnp_min_inliers within this many times
   /// pnp_reprojection_px, or the candidate is rejected at the PnP stage. It needs ~1/w^2 samples

@@ -24,6 +24,7 @@
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
 #include "vims_pose_graph/keyframe_description.h"
+#include "vims_pose_graph/loop_measurement.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/multiscale_map.h"
 
@@ -52,6 +53,9 @@ struct LoopAttempt {
   /// The candidate came from the pose graph's estimate (LoopDetectorOptions::proximity_candidates),
   /// not from the magnetic and BoW stages.
   bool proximity = false;
+  /// Standard deviations of the loop's 4-DoF relative pose (p_li_j [m], yaw_i_j [rad]) from its
+  /// inliers (loopCovariance4Dof); NaN when PnP did not succeed or the geometry was degenerate.
+  Eigen::Vector4d sigma = Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 
 /// A keyframe asking for a loop.
@@ -81,6 +85,8 @@ struct VerificationResult {
   /// attitude [deg] (NaN until computed; LoopDetectorOptions::pnp_max_tilt_error_deg).
   double tilt_error_deg = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::pair<uint32_t, uint32_t>> inlier_matches;  ///< (query point, candidate keypoint)
+  /// The known-vertical refinement of the PnP pose and its covariance (refineLoopMeasurement).
+  std::optional<LoopMeasurement> refined;
 };
 
 /// One 2NN match.

@@ -17,6 +17,7 @@
 
 #include <Eigen/Geometry>
 
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -109,7 +110,11 @@ class MultiScaleMap {
   void addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, double sigma_position_m, double sigma_yaw_rad);
   /// A verified loop (T_match_query = pose of the query body in the match body frame). Joins
   /// the two components (call moveComponent first if the query's component is to be re-placed).
-  LoopEdgeId addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query, const Eigen::Isometry3d& T_match_query);
+  /// `measurement_sigma`: the loop's own standard deviations of (p_li_j, yaw_i_j) (LoopAttempt::
+  /// sigma), used with PoseGraphOptions::loop_sigma_from_inliers; NaN = none (constant sigmas).
+  LoopEdgeId addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query, const Eigen::Isometry3d& T_match_query,
+                         const Eigen::Vector4d& measurement_sigma =
+                             Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN()));
   /// A geomagnetic yaw factor from the low-passed geomagnetic field in the BODY frame. False
   /// when the field is not finite or its horizontal part is below mag_min_horizontal_field_tesla.
   /// The first accepted measurement of a component without loaded sessions rotates that

@@ -57,6 +57,15 @@ struct PoseGraphOptions {
   /// spreading a systematic VIO drift over the chain, and it is dropped.
   double loop_position_sigma_m = 0.10;
   double loop_yaw_sigma_rad = 1.0 * M_PI / 180.0;  ///< key loop_yaw_sigma_deg
+  /// Weight each loop edge by its own measurement covariance (LoopAttempt::sigma, from its
+  /// inliers' geometry and residuals; docs/pose_graph.md, "Loop edge measurement and
+  /// information") instead of the constant sigmas above, which remain for loops without one.
+  /// Per component sigma = sqrt(sigma_inliers^2 + floor^2): the floors stand for what the
+  /// inliers cannot show, the errors all points of a keyframe share (the VIO's attitude at the
+  /// match, a landmark scale error).
+  bool loop_sigma_from_inliers = false;
+  double loop_position_sigma_floor_m = 0.005;
+  double loop_yaw_sigma_floor_rad = 0.05 * M_PI / 180.0;  ///< key loop_yaw_sigma_floor_deg
   RobustLoss loop_loss = RobustLoss::kCauchy;
   double loop_loss_scale = 3.0;
 

@@ -78,7 +78,8 @@ RobustLoss robustLossFromString(const std::string& name) {
 
 PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   reader.rejectUnknownKeys({"odometry_position_sigma_m", "odometry_position_sigma_per_m", "odometry_yaw_sigma_deg",
-                            "odometry_yaw_sigma_per_m_deg", "loop_position_sigma_m", "loop_yaw_sigma_deg", "loop_loss",
+                            "odometry_yaw_sigma_per_m_deg", "loop_position_sigma_m", "loop_yaw_sigma_deg",
+                            "loop_sigma_from_inliers", "loop_position_sigma_floor_m", "loop_yaw_sigma_floor_deg", "loop_loss",
                             "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
                             "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads",
                             "function_tolerance", "online_function_tolerance", "loop_solve_from_earliest_node",
@@ -108,6 +109,9 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   o.odometry_yaw_sigma_per_m_rad = kDeg * nonNegative("odometry_yaw_sigma_per_m_deg", o.odometry_yaw_sigma_per_m_rad / kDeg);
   o.loop_position_sigma_m = positive("loop_position_sigma_m", o.loop_position_sigma_m);
   o.loop_yaw_sigma_rad = kDeg * positive("loop_yaw_sigma_deg", o.loop_yaw_sigma_rad / kDeg);
+  o.loop_sigma_from_inliers = reader.get<bool>("loop_sigma_from_inliers", o.loop_sigma_from_inliers);
+  o.loop_position_sigma_floor_m = positive("loop_position_sigma_floor_m", o.loop_position_sigma_floor_m);
+  o.loop_yaw_sigma_floor_rad = kDeg * positive("loop_yaw_sigma_floor_deg", o.loop_yaw_sigma_floor_rad / kDeg);
   o.loop_loss = loss("loop_loss", o.loop_loss);
   o.loop_loss_scale = positive("loop_loss_scale", o.loop_loss_scale);
   o.mag_yaw_sigma_rad = kDeg * positive("mag_yaw_sigma_deg", o.mag_yaw_sigma_rad / kDeg);
@@ -143,6 +147,8 @@ void PoseGraphOptions::validate() const {
   check(odometry_yaw_sigma_per_m_rad >= 0.0, "odometry_yaw_sigma_per_m_rad");
   check(loop_position_sigma_m > 0.0, "loop_position_sigma_m");
   check(loop_yaw_sigma_rad > 0.0, "loop_yaw_sigma_rad");
+  check(loop_position_sigma_floor_m > 0.0, "loop_position_sigma_floor_m");
+  check(loop_yaw_sigma_floor_rad > 0.0, "loop_yaw_sigma_floor_rad");
   check(loop_loss_scale > 0.0, "loop_loss_scale");
   check(mag_yaw_sigma_rad > 0.0 && mag_yaw_sigma_rad <= M_PI, "mag_yaw_sigma_rad");
   check(mag_loss_scale > 0.0, "mag_loss_scale");
@@ -166,6 +172,9 @@ std::string PoseGraphOptions::toYaml() const {
      << "odometry_yaw_sigma_per_m_deg: " << odometry_yaw_sigma_per_m_rad / kDeg << "\n"
      << "loop_position_sigma_m: " << loop_position_sigma_m << "\n"
      << "loop_yaw_sigma_deg: " << loop_yaw_sigma_rad / kDeg << "\n"
+     << "loop_sigma_from_inliers: " << (loop_sigma_from_inliers ? "true" : "false") << "\n"
+     << "loop_position_sigma_floor_m: " << loop_position_sigma_floor_m << "\n"
+     << "loop_yaw_sigma_floor_deg: " << loop_yaw_sigma_floor_rad / kDeg << "\n"
      << "loop_loss: " << toString(loop_loss) << "\n"
      << "loop_loss_scale: " << loop_loss_scale << "\n"
      << "mag_yaw_sigma_deg: " << mag_yaw_sigma_rad / kDeg << "\n"

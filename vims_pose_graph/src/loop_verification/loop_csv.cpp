@@ -16,7 +16,7 @@ std::string optional(double v, const char* format) {
 }
 }  // namespace
 
-const char* loopCsvHeader() { return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage"; }
+const char* loopCsvHeader() { return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,sigma_yaw_deg"; }
 
 std::string formatLoopCsvRow(const LoopAttempt& a) {
   Eigen::Quaterniond q(a.T_match_query.linear());
@@ -27,7 +27,8 @@ std::string formatLoopCsvRow(const LoopAttempt& a) {
   std::snprintf(buf, sizeof(buf), "%.6f,%.6f,%d,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,%d,", a.t_query, a.t_match,
                 a.accepted ? 1 : 0, p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w(), a.inliers);
   return std::string(buf) + optional(a.mag_distance, "%.6e") + "," + optional(a.bow_score, "%.6f") + "," +
-         toString(a.stage);
+         toString(a.stage) + "," + optional(a.sigma[0], "%.6f") + "," + optional(a.sigma[1], "%.6f") + "," +
+         optional(a.sigma[2], "%.6f") + "," + optional(a.sigma[3] * 180.0 / M_PI, "%.6f");
 }
 
 LoopCsvWriter::LoopCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {

@@ -473,6 +473,18 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   const Eigen::Isometry3d T_bm_odomq = T_b_c_ * T_cm_odomq;
   r.T_match_query = T_bm_odomq * query.T_odom_b;
   r.has_pose = true;
+  if (options_.pnp_known_vertical_refinement) {
+    LoopInlierGeometry geometry;
+    geometry.points_odom_query.reserve(r.inlier_matches.size());
+    geometry.normalized_match.reserve(r.inlier_matches.size());
+    for (const auto& [point, keypoint] : r.inlier_matches) {
+      geometry.points_odom_query.push_back(points.p_odom[point]);
+      geometry.normalized_match.push_back(sub.normalized[keypoint]);
+    }
+    r.refined = refineLoopMeasurement(geometry, r.T_match_query, query.T_odom_b, T_b_c_, cand.pose.pitch, cand.pose.roll);
+    // The covisibility check below keeps the PnP pose: it tests the match, not the edge.
+    if (r.refined) r.T_match_query = r.refined->T_match_query;
+  }
 
   if (options_.covisibility_neighbours > 0) {
     r.covisibility_confirming_neighbours =
@@ -716,6 +728,7 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     a.stage = v.stage;
     a.inliers = v.stage == LoopStage::kMatching ? v.num_matches : v.num_inliers;
     if (v.has_pose) a.T_match_query = v.T_match_query;
+    if (v.refined) a.sigma = v.refined->covariance.diagonal().cwiseSqrt();
     a.accepted = v.stage == LoopStage::kAccepted;
     res.attempts.push_back(a);
     logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop attempt t_query=" << query.t

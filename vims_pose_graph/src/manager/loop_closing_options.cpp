@@ -141,7 +141,7 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
                             "match_predicted_level_tolerance", "proximity_candidates", "proximity_radius_m",
                             "submap_dense_corners_per_level", "query_seabed_corners", "query_seabed_min_level_shift",
                             "pnp_reprojection_px", "pnp_iterations", "pnp_confidence", "pnp_min_inliers",
-                            "pnp_max_tilt_error_deg", "pnp_vertical_check_threshold_scale",
+                            "pnp_max_tilt_error_deg", "pnp_known_vertical_refinement", "pnp_vertical_check_threshold_scale",
                             "covisibility_neighbours", "covisibility_min_points", "covisibility_min_ratio",
                             "covisibility_min_neighbours", "covisibility_search_radius_px",
                             "record_prefilter_rejections"});
@@ -184,6 +184,7 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   readInRange(reader, "pnp_confidence", &o.pnp_confidence, 0.5, 0.999999);
   readInRange(reader, "pnp_min_inliers", &o.pnp_min_inliers, 6, 100000);
   readInRange(reader, "pnp_max_tilt_error_deg", &o.pnp_max_tilt_error_deg, 0.0, 180.0);
+  o.pnp_known_vertical_refinement = reader.get<bool>("pnp_known_vertical_refinement", o.pnp_known_vertical_refinement);
   readInRange(reader, "pnp_vertical_check_threshold_scale", &o.pnp_vertical_check_threshold_scale, 0.0, 100.0);
   readInRange(reader, "covisibility_neighbours", &o.covisibility_neighbours, 0, 100);
   readInRange(reader, "covisibility_min_points", &o.covisibility_min_points, 1, 100000);
@@ -272,6 +273,7 @@ std::string LoopDetectorOptions::toYaml() const {
      << "pnp_confidence: " << pnp_confidence << "\n"
      << "pnp_min_inliers: " << pnp_min_inliers << "\n"
      << "pnp_max_tilt_error_deg: " << pnp_max_tilt_error_deg << "\n"
+     << "pnp_known_vertical_refinement: " << (pnp_known_vertical_refinement ? "true" : "false") << "\n"
      << "pnp_vertical_check_threshold_scale: " << pnp_vertical_check_threshold_scale << "\n"
      << "covisibility_neighbours: " << covisibility_neighbours << "\n"
      << "covisibility_min_points: " << covisibility_min_points << "\n"

@@ -340,7 +340,7 @@ void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
                                          << a.t_match << ", " << a.inliers << " inliers)"));
     }
   }
-  const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query);
+  const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query, a.sigma);
   ++stats_.loops_accepted;
   scheduler_.loopAccepted(loop_id, m, q);
   logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query

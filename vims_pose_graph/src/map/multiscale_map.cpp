@@ -130,7 +130,7 @@ void MultiScaleMap::addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, dou
 }
 
 LoopEdgeId MultiScaleMap::addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query,
-                                      const Eigen::Isometry3d& T_match_query) {
+                                      const Eigen::Isometry3d& T_match_query, const Eigen::Vector4d& measurement_sigma) {
   checkNode(match, "addLoopEdge");
   checkNode(query, "addLoopEdge");
   if (match == query || !isFinitePose(T_match_query))
@@ -141,8 +141,15 @@ LoopEdgeId MultiScaleMap::addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId que
   e.query = query;
   e.T_match_query = T_match_query;
   e.measurement = relativePose4DofFromRelative(T_match_query, nodes_[match].pose.pitch, nodes_[match].pose.roll);
-  const double ip = 1.0 / graph_options_.loop_position_sigma_m;
-  e.sqrt_information << ip, ip, ip, 1.0 / graph_options_.loop_yaw_sigma_rad;
+  const PoseGraphOptions& o = graph_options_;
+  if (o.loop_sigma_from_inliers && measurement_sigma.allFinite() && (measurement_sigma.array() >= 0.0).all()) {
+    const Eigen::Vector4d floor(o.loop_position_sigma_floor_m, o.loop_position_sigma_floor_m,
+                                o.loop_position_sigma_floor_m, o.loop_yaw_sigma_floor_rad);
+    e.sqrt_information = (measurement_sigma.array().square() + floor.array().square()).sqrt().inverse();
+  } else {
+    const double ip = 1.0 / o.loop_position_sigma_m;
+    e.sqrt_information << ip, ip, ip, 1.0 / o.loop_yaw_sigma_rad;
+  }
   loop_edges_.push_back(e);
   uniteSessions(nodes_[match].session, nodes_[query].session);
   return e.id;
