@@ -160,6 +160,21 @@ TEST(AblationOrder, ClaimsJudgedOnTheRowsPresent) {
   EXPECT_EQ(ablationClaimsLine({}), "VIMS_ABLATION_ORDER holds=0/0");
 }
 
+TEST(AblationOrder, MagneticStageRecallAgainstVisionAlone) {
+  AblationRow full = okRow("full");
+  AblationRow vision = okRow("no_alter");
+  vision.correct_loop_query_times = {10.0, 20.0, 30.0, 40.0};
+  full.correct_loop_query_times = {10.0, 20.0, 33.0, 50.0, 60.0};  // 30 found 3 s later, 40 lost
+  const MagneticStageRecall r = magneticStageRecall(full, vision, 5.0);
+  EXPECT_EQ(r.vision_queries, 4u);
+  EXPECT_EQ(r.same_query, 2u);
+  EXPECT_EQ(r.within_window, 3u);
+  EXPECT_EQ(r.full_only, 3u);  // 33, 50, 60
+  const MagneticStageRecall none = magneticStageRecall(AblationRow(), vision, 5.0);
+  EXPECT_EQ(none.same_query, 0u);
+  EXPECT_EQ(none.within_window, 0u);
+}
+
 TEST(AblationTable, RealTimeFactorIsReadDefensively) {
   const fs::path dir = freshDir("rtf");
   std::ofstream(dir / "a.yaml") << "sequence: x\nreal_time_factor: 4.5\nlatency_ms: {new_key_p50: 3}\n";

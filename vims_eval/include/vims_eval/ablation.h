@@ -39,6 +39,8 @@ struct AblationRow {
   double trans_pct = 0.0;      ///< of the ground-truth distance
   double rot_rmse_deg = 0.0;   ///< global.tum rotation error RMSE after SE3 alignment
   double vio_trans_rmse_m = 0.0;  ///< vio.tum ATE RMSE (SE3), NaN when absent
+  /// Query stamps of the correct accepted loops, in file order (magneticStageRecall).
+  std::vector<double> correct_loop_query_times;
   double real_time_factor = 0.0;  ///< from summary.yaml, NaN when absent
 
   /// trans_rmse_m / vio_trans_rmse_m: above 1 the loops and the pose graph made the trajectory
@@ -65,6 +67,18 @@ std::string ablationMarkdown(const std::vector<AblationRow>& rows);
 std::string ablationCsv(const std::vector<AblationRow>& rows);
 /// `VIMS_ABLATION mode=... status=ok|failed correct=... verifications=... trans_rmse_m=... ...`
 std::string ablationSummaryLine(const AblationRow& row);
+
+/// What the magnetic stage keeps of the places vision alone finds: of the query keyframes that
+/// `vision` (w/o Alter.: BoW over the whole map) closed with a correct loop, how many `full`
+/// (magnetic candidates first) also closed, at the same keyframe and within `window_s`.
+struct MagneticStageRecall {
+  std::size_t vision_queries = 0;    ///< queries closed by the vision-only run
+  std::size_t same_query = 0;        ///< of them, closed by full at the same keyframe
+  std::size_t within_window = 0;     ///< of them, full has a correct loop within window_s
+  std::size_t full_only = 0;         ///< queries full closed that the vision-only run did not
+  double window_s = 5.0;
+};
+MagneticStageRecall magneticStageRecall(const AblationRow& full, const AblationRow& vision, double window_s = 5.0);
 
 /// One of the paper's claims about the ablation, checked on the rows.
 struct AblationClaim {
