@@ -81,6 +81,13 @@ std::string lastLines(const std::string& path, std::size_t count) {
   return out;
 }
 
+/// The row of `mode` when that variant ran and was evaluated, else nullptr.
+const AblationRow* okRowOf(const std::vector<AblationRow>& rows, const std::string& mode) {
+  for (const AblationRow& r : rows)
+    if (r.mode == mode && r.ok) return &r;
+  return nullptr;
+}
+
 }  // namespace
 
 const std::vector<std::string>& ablationModes() {
@@ -237,11 +244,7 @@ MagneticStageRecall magneticStageRecall(const AblationRow& full, const AblationR
 }
 
 std::vector<AblationClaim> ablationClaims(const std::vector<AblationRow>& rows) {
-  auto find = [&](const std::string& mode) -> const AblationRow* {
-    for (const AblationRow& r : rows)
-      if (r.mode == mode && r.ok) return &r;
-    return nullptr;
-  };
+  auto find = [&](const std::string& mode) { return okRowOf(rows, mode); };
   std::vector<AblationClaim> claims;
   const AblationRow* full = find("full");
   if (!full) return claims;
@@ -454,13 +457,9 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
   const std::vector<AblationClaim> claims = ablationClaims(rows);
   std::string recall_text;
   {
-    const AblationRow* full = nullptr;
-    const AblationRow* vision = nullptr;
-    for (const AblationRow& r : rows) {
-      if (r.ok && r.has_loops && r.mode == "full") full = &r;
-      if (r.ok && r.has_loops && r.mode == "no_alter") vision = &r;
-    }
-    if (full && vision) {
+    const AblationRow* full = okRowOf(rows, "full");
+    const AblationRow* vision = okRowOf(rows, "no_alter");
+    if (full && vision && full->has_loops && vision->has_loops) {
       const MagneticStageRecall m = magneticStageRecall(*full, *vision);
       std::ostringstream os;
       os << "The magnetic stage against vision alone (w/o Alter.): of the " << m.vision_queries
@@ -498,11 +497,7 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
         err << "vims_eval ablation: figure " << what << ": " << e.what() << "\n";
       }
     };
-    auto have = [&](const std::string& mode) {
-      for (const auto& r : rows)
-        if (r.mode == mode && r.ok) return true;
-      return false;
-    };
+    auto have = [&](const std::string& mode) { return okRowOf(rows, mode) != nullptr; };
     std::vector<std::pair<std::string, std::string>> trajectories;
     if (have("vi_slam")) trajectories.emplace_back("VI-SLAM", (fs::path(runDir("vi_slam")) / "global.tum").string());
     if (have("full")) trajectories.emplace_back("VIMS", (fs::path(runDir("full")) / "global.tum").string());

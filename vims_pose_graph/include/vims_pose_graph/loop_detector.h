@@ -54,7 +54,8 @@ struct LoopAttempt {
   /// not from the magnetic and BoW stages.
   bool proximity = false;
   /// Standard deviations of the loop's 4-DoF relative pose (p_li_j [m], yaw_i_j [rad]) from its
-  /// inliers (loopCovariance4Dof); NaN when PnP did not succeed or the geometry was degenerate.
+  /// inliers (refineLoopMeasurement); NaN when PnP did not succeed, the refinement is off or the
+  /// geometry was degenerate.
   Eigen::Vector4d sigma = Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 

@@ -4,16 +4,11 @@
 
 #include <cmath>
 
+#include "vims_pose_graph/angles.h"
+
 namespace vims {
 
 namespace {
-
-Eigen::Matrix3d levelling(double pitch, double roll) {
-  return (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-
-double yawOfRotation(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 
 /// The loop's geometry for a 4-DoF state z = (p_l, yaw): the query body in the match body frame.
 struct FourDofLoop {
@@ -24,7 +19,7 @@ struct FourDofLoop {
 
   Eigen::Isometry3d matchQuery(const Eigen::Vector4d& z) const {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = L_m.transpose() * Eigen::AngleAxisd(z[3], Eigen::Vector3d::UnitZ()).toRotationMatrix() * L_q;
+    T.linear() = L_m.transpose() * rotationZ(z[3]) * L_q;
     T.translation() = L_m.transpose() * z.head<3>();
     return T;
   }
@@ -65,15 +60,15 @@ std::optional<LoopMeasurement> refineLoopMeasurement(const LoopInlierGeometry& i
   const size_t n = inliers.points_odom_query.size();
   if (n < 4 || inliers.normalized_match.size() != n) return std::nullopt;
   FourDofLoop loop;
-  loop.L_m = levelling(pitch_match, roll_match);
-  const Eigen::Matrix3d& R_oq = T_odomq_bq.linear();
-  loop.L_q = Eigen::AngleAxisd(-yawOfRotation(R_oq), Eigen::Vector3d::UnitZ()).toRotationMatrix() * R_oq;
+  loop.L_m = rotationFromPitchRoll(pitch_match, roll_match);
+  const YawPitchRoll query_attitude = yawPitchRollFromRotation(T_odomq_bq.linear());
+  loop.L_q = rotationFromPitchRoll(query_attitude.pitch, query_attitude.roll);
   loop.T_c_b = T_b_c.inverse();
   loop.T_bq_odomq = T_odomq_bq.inverse();
 
   Eigen::Vector4d z;
   z.head<3>() = loop.L_m * T_match_query_pnp.translation();
-  z[3] = yawOfRotation(loop.L_m * T_match_query_pnp.linear());
+  z[3] = yawPitchRollFromRotation(loop.L_m * T_match_query_pnp.linear()).yaw;
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   if (!loop.residuals(inliers, z, &r)) return std::nullopt;
