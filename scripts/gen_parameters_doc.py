@@ -21,10 +21,10 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # Order and one-line purpose of each configuration file.
 CONFIG_FILES = [
-    ("sonar.yaml", "sonar altitude filter (vims_sonar_filter_node, `sonar` section of vims_offline --config)"),
+    ("sonar.yaml", "sonar altitude filter (vims_sonar_filter_node, `sonar` section)"),
     ("magnetometer.yaml", "magnetic signatures and geomagnetic field (vims_magnetometer_node, `magnetometer` section)"),
-    ("tracker.yaml", "KLT feature tracker (`tracker` section of the estimator config and of vims_offline --config)"),
-    ("estimator.yaml", "sliding-window VIO (vims_estimator_node: launch arg estimator_config; `estimator` section)"),
+    ("tracker.yaml", "KLT feature tracker (vims_estimator_node, `tracker` section)"),
+    ("estimator.yaml", "sliding-window VIO (vims_estimator_node, `estimator` section)"),
     ("pose_graph.yaml", "pose graph, multi-scale map and loop closing (vims_pose_graph_node, `pose_graph` section)"),
 ]
 KEY_LINE = re.compile(r"^(?P<indent> *)(?P<key>[A-Za-z_][A-Za-z0-9_]*):(?P<rest>.*)$")
@@ -114,11 +114,14 @@ def render():
         "A key that is missing from a user's file keeps its default; an unknown key or an out-of-range",
         "value stops the node or `vims_offline` with an error naming the key.",
         "",
-        "Where the values go:",
-        "- ROS: each node reads its file (`launch/vims.launch` args sonar_options, magnetometer_options,",
-        "  estimator_config (sections `tracker` and `estimator`) and pose_graph_options).",
-        "- Offline: `vims_offline --config FILE` reads one file with the optional sections `sonar`,",
-        "  `magnetometer`, `tracker`, `estimator` and `pose_graph`, each holding the keys below.",
+        "Where the values go: every entry point reads a *system configuration*, one or more YAML files",
+        "whose top-level keys are the sections `sonar`, `magnetometer`, `tracker`, `estimator` and",
+        "`pose_graph` (each holding the keys below; a section in two files is an error), through one",
+        "loader (`vims::SystemConfig`, vims_system):",
+        "- ROS: each node's `~config_file` (a path or a list of paths) and uses its sections; the",
+        "  launch args sonar_options, magnetometer_options, estimator_config (sections `tracker` and",
+        "  `estimator`) and pose_graph_options name the files.",
+        "- Offline: `vims_offline --config FILE` (repeatable), e.g. the four files the launch files use.",
         "- Calibration (camera intrinsics and distortion, extrinsics `T_b_c`/`T_b_s`/`T_b_m`, IMU and sonar",
         "  noise, coil frequency, declination) is never a parameter here: it is read from the sequence's",
         "  YAML (docs/sensor-contract.md), so a recording from another vehicle needs no retuning.",

@@ -21,6 +21,7 @@
 #include <signal.h>
 #include <sys/types.h>
 #include <tf2_msgs/TFMessage.h>
+#include <vims/FilteredSonarRange.h>
 #include <vims/Keyframe.h>
 #include <vims/MagneticSignature.h>
 #include <visualization_msgs/Marker.h>
@@ -68,9 +69,8 @@ bool finite(const nav_msgs::Path& m) {
     if (!finite(p.pose)) return false;
   return true;
 }
-bool finite(const sensor_msgs::Range& m) {
-  return finite(m.range) && finite(m.field_of_view) && finite(m.min_range) && finite(m.max_range);
-}
+/// raw may be +inf (no echo, REP 117), never NaN.
+bool finite(const vims::FilteredSonarRange& m) { return finite(m.filtered) && !std::isnan(m.raw); }
 bool finite(const sensor_msgs::MagneticField& m) { return finite(m.magnetic_field) && finite(m.magnetic_field_covariance); }
 bool finite(const vims::MagneticSignature& m) {
   return finite(m.frequency_hz) && finite(m.amplitude_enu) && finite(m.geomagnetic_body) && finite(m.snr);
@@ -169,6 +169,29 @@ ros::Time hostileStamp(int i, double rate_hz) {
     case 9: return ros::Time(nominal - 1.0 / rate_hz);
     default: return ros::Time(nominal);
   }
+}
+
+/// A filter verdict as vims_sonar_filter_node would publish it, or one that breaks its rules.
+vims::FilteredSonarRange hostileFilteredRange(int i, std::mt19937& rng) {
+  vims::FilteredSonarRange m;
+  m.header.stamp = hostileStamp(i, 10.0);
+  m.header.frame_id = "sonar";
+  std::normal_distribution<double> noise(0.0, 0.02);
+  m.raw = m.filtered = 3.0 + noise(rng);
+  m.has_estimate = m.accepted = true;
+  m.status = vims::FilteredSonarRange::STATUS_OK;
+  switch (i % 11) {
+    case 0: m.filtered = std::numeric_limits<double>::quiet_NaN(); break;
+    case 1: m.raw = std::numeric_limits<double>::quiet_NaN(); break;
+    case 2: m.filtered = -1.0; break;
+    case 3: m.filtered = 1e30; break;  // finite but absurd
+    case 4: m.status = 200; break;
+    case 5: m.has_estimate = false; break;  // accepted without an estimate
+    case 6: m.accepted = false; m.status = vims::FilteredSonarRange::STATUS_OUTLIER; break;
+    case 7: m.filtered = std::numeric_limits<double>::infinity(); break;
+    default: break;
+  }
+  return m;
 }
 
 sensor_msgs::Range hostileRange(int i, std::mt19937& rng) {
@@ -469,7 +492,7 @@ TEST(NodeRobustness, MalformedInputsNeitherCrashNorProduceNaN) {
   spinner.start();
 
   OutputMonitor out;
-  out.watch<sensor_msgs::Range>(nh, "/fe/sonar/filtered");
+  out.watch<vims::FilteredSonarRange>(nh, "/fe/sonar/filtered");
   out.watch<vims::MagneticSignature>(nh, "/fe/mag/signature");
   out.watch<sensor_msgs::MagneticField>(nh, "/fe/mag/geomagnetic");
   out.watch<nav_msgs::Path>(nh, "/pg/global/path");
@@ -496,7 +519,7 @@ TEST(NodeRobustness, MalformedInputsNeitherCrashNorProduceNaN) {
   ros::Publisher pub_image, pub_filtered;
   if (with_estimator) {
     pub_image = nh.advertise<sensor_msgs::Image>("/fuzz/cam0/image_raw", 200);
-    pub_filtered = nh.advertise<sensor_msgs::Range>("/est/sonar/filtered", q);
+    pub_filtered = nh.advertise<vims::FilteredSonarRange>("/est/sonar/filtered", q);
   }
   std::vector<ros::Publisher*> inputs = {&pub_range, &pub_imu, &pub_mag, &pub_keyframe, &pub_signature,
                                          &pub_geomagnetic, &pub_odometry};
@@ -534,7 +557,7 @@ TEST(NodeRobustness, MalformedInputsNeitherCrashNorProduceNaN) {
     pub_odometry.publish(hostileOdometry(i));
     if (with_estimator) {
       pub_image.publish(hostileImage(i, width, height, rng));
-      pub_filtered.publish(hostileRange(i, rng));
+      pub_filtered.publish(hostileFilteredRange(i, rng));
     }
     // ~2000 messages per topic and second: fast, yet the nodes' queues see most of them.
     if (i % 20 == 19) ros::WallDuration(0.01).sleep();

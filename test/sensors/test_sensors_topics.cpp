@@ -4,10 +4,11 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
-#include <sensor_msgs/Range.h>
+#include <vims/FilteredSonarRange.h>
 #include <vims/MagneticSignature.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "vims_common/sequence_config.h"
 
@@ -21,7 +22,7 @@ constexpr int kMinSignatures = 10;
 constexpr double kTimeoutS = 100.0;
 
 struct Received {
-  std::vector<sensor_msgs::Range> ranges;
+  std::vector<vims::FilteredSonarRange> ranges;
   std::vector<sensor_msgs::MagneticField> geomagnetic;
   std::vector<vims::MagneticSignature> signatures;
   bool enough() const {
@@ -42,8 +43,8 @@ TEST(Sensors, FilteredRangesGeomagneticAndSignaturesArePublished) {
   const vims::SequenceConfig sequence = vims::SequenceConfig::load(sequence_path);
 
   Received rx;
-  auto sub_range = nh.subscribe<sensor_msgs::Range>(
-      "sonar/filtered", 1000, [&](const sensor_msgs::Range::ConstPtr& m) { rx.ranges.push_back(*m); });
+  auto sub_range = nh.subscribe<vims::FilteredSonarRange>(
+      "sonar/filtered", 1000, [&](const vims::FilteredSonarRange::ConstPtr& m) { rx.ranges.push_back(*m); });
   auto sub_geo = nh.subscribe<sensor_msgs::MagneticField>(
       "mag/geomagnetic", 1000, [&](const sensor_msgs::MagneticField::ConstPtr& m) { rx.geomagnetic.push_back(*m); });
   auto sub_sig = nh.subscribe<vims::MagneticSignature>(
@@ -58,15 +59,27 @@ TEST(Sensors, FilteredRangesGeomagneticAndSignaturesArePublished) {
   ASSERT_GE(static_cast<int>(rx.geomagnetic.size()), kMinGeomagnetic);
   ASSERT_GE(static_cast<int>(rx.signatures.size()), kMinSignatures);
 
+  int accepted = 0;
   for (std::size_t i = 0; i < rx.ranges.size(); ++i) {
     const auto& r = rx.ranges[i];
-    EXPECT_TRUE(std::isfinite(r.range));
-    EXPECT_GE(r.range, sequence.sonar.min_range);
-    EXPECT_LE(r.range, sequence.sonar.max_range);
+    EXPECT_FALSE(std::isnan(r.raw));
+    EXPECT_TRUE(std::isfinite(r.filtered));
+    if (r.accepted) {
+      ++accepted;
+      EXPECT_TRUE(r.has_estimate);
+      EXPECT_EQ(r.status, vims::FilteredSonarRange::STATUS_OK);
+      EXPECT_GE(r.filtered, sequence.sonar.min_range);
+      EXPECT_LE(r.filtered, sequence.sonar.max_range);
+    }
     if (i > 0) {
       EXPECT_GT(r.header.stamp, rx.ranges[i - 1].header.stamp);
     }
   }
+  std::cout << "sonar/filtered: " << accepted << " of " << rx.ranges.size() << " verdicts accepted\n";
+  // The simulated altimeter is mostly good: 3 % of the verdicts are rejections (outliers,
+  // dropouts, the first samples while the filter acquires; 18 of 600 in vims_offline's
+  // sonar_filtered.csv of the 60 s tank): at most about twice that share here.
+  EXPECT_GE(accepted, static_cast<int>(0.92 * rx.ranges.size()));
   const double field_norm_min = 1e-6, field_norm_max = 1e-3;  // any Earth field is 25-65 uT
   for (const auto& g : rx.geomagnetic) {
     EXPECT_EQ(g.header.frame_id, "base_link");

@@ -24,7 +24,7 @@
 #include "vims_eval/map_figures.h"
 #include "vims_eval/plot.h"
 #include "vims_eval/report.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;

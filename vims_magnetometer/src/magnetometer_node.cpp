@@ -8,8 +8,9 @@
 //                             body frame, every geomagnetic_output_period_s, for yaw factors
 // Params      ~sequence_config (string, required): the sequence YAML (T_b_m, rate, coil frequency,
 //                              declination, gravity, topics)
-//             ~options_file    (string, optional): extractor options, e.g. config/magnetometer.yaml;
-//                              empty = the defaults of MagnetometerOptions
+//             ~config_file     (string or list of strings, optional): system configuration files
+//                              (vims::SystemConfig); the node uses the section magnetometer
+//                              (e.g. config/magnetometer.yaml); empty = the defaults
 //             ~mag_topic, ~imu_topic (string, optional): input topics instead of topics.mag / topics.imu
 //             ~world_frame_id  (string, default "map"): frame_id of the signatures (true ENU)
 //             ~body_frame_id   (string, default "base_link"): frame_id of the geomagnetic vector
@@ -24,7 +25,9 @@
 #include "vims_common/sequence_config.h"
 #include "vims_magnetometer/signature_extractor.h"
 #include "vims_ros/conversions.h"
+#include "vims_ros/node_config.h"
 #include "vims_ros/ros_logger.h"
+#include "vims_system/system_config.h"
 
 namespace {
 
@@ -151,22 +154,19 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "vims_magnetometer");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
-  std::string sequence_path, options_path, world_frame, body_frame;
+  std::string sequence_path, world_frame, body_frame;
   if (!pnh.getParam("sequence_config", sequence_path)) {
     ROS_FATAL("parameter ~sequence_config (path of the sequence YAML) is required");
     return 1;
   }
-  pnh.param<std::string>("options_file", options_path, "");
   pnh.param<std::string>("world_frame_id", world_frame, "map");
   pnh.param<std::string>("body_frame_id", body_frame, "base_link");
   try {
     std::vector<std::string> unknown;
     const vims::SequenceConfig sequence = vims::SequenceConfig::load(sequence_path, &unknown);
     for (const auto& key : unknown) ROS_WARN_STREAM(sequence_path << ": key '" << key << "' is not in the contract");
-    const vims::MagnetometerOptions options =
-        options_path.empty() ? vims::MagnetometerOptions{}
-                             : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path));
-    MagnetometerNode node(nh, sequence, options, pnh.param<std::string>("mag_topic", sequence.topics.mag),
+    const vims::SystemConfig config = vims::SystemConfig::load(vims::configFilesParam(pnh), sequence);
+    MagnetometerNode node(nh, sequence, config.magnetometer, pnh.param<std::string>("mag_topic", sequence.topics.mag),
                           pnh.param<std::string>("imu_topic", sequence.topics.imu), world_frame, body_frame);
     ros::spin();
   } catch (const vims::ConfigError& e) {

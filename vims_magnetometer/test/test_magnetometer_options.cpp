@@ -64,9 +64,3 @@ TEST(MagnetometerOptions, ExtractorRejectsOptionsThatDoNotFitTheSensor) {
   EXPECT_THROW(SignatureExtractor(o, MagnetometerCalibration{}, 9.81), ConfigError);
 }
 
-TEST(MagnetometerOptions, ConfigFileStatesTheDefaults) {
-  // config/magnetometer.yaml documents the defaults; it must not drift from the struct.
-  const auto from_file = MagnetometerOptions::fromReader(
-      ConfigReader::fromFile(std::string(VIMS_SOURCE_DIR) + "/config/magnetometer.yaml"));
-  EXPECT_EQ(from_file.toYaml(), MagnetometerOptions{}.toYaml());
-}

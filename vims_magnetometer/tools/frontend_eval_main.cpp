@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
     if (command == "sonar") {
       const auto options = options_path.empty()
                                ? vims::SonarFilterOptions{}
-                               : vims::SonarFilterOptions::fromReader(vims::ConfigReader::fromFile(options_path));
+                               : vims::SonarFilterOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("sonar"));
       const auto ev = vims::frontend_eval::evaluateSonar(sequence, options, logger, csv_path);
       std::printf("sonar filter on %s\n", sequence.c_str());
       std::printf("  samples %ld (dropouts %ld, without ground truth %ld)\n", ev.samples, ev.dropouts, ev.no_truth);
@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
     } else {
       const auto options = options_path.empty()
                                ? vims::MagnetometerOptions{}
-                               : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path));
+                               : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("magnetometer"));
       const vims::frontend_eval::MagEvaluationOptions eval_options;
       const auto ev = vims::frontend_eval::evaluateMagnetometer(sequence, options, eval_options, logger, csv_path);
       std::printf("magnetic signatures on %s\n", sequence.c_str());

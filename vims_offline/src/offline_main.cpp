@@ -15,14 +15,14 @@
 namespace {
 
 const char* kUsage =
-    "usage: vims_offline --sequence DIR --out OUT [--config FILE] [--mode MODE] [--map-load FILE]\n"
+    "usage: vims_offline --sequence DIR --out OUT [--config FILE]... [--mode MODE] [--map-load FILE]\n"
     "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--vio-only]\n"
     "                    [--quiet]\n"
     "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
     "  --config FILE       system configuration: optional sections sonar, magnetometer, tracker, estimator,\n"
-    "                      pose_graph; keys and defaults in config/<section>.yaml (tracker: in\n"
-    "                      vims_tracking/tracker_options.h); default: built-in defaults\n"
+    "                      pose_graph; keys and defaults in config/<section>.yaml. Repeatable: each\n"
+    "                      file gives some sections, no section twice. Default: built-in defaults\n"
     "  --mode MODE         full (default), vi_slam, no_sonar, no_alter, no_orb or no_geom: the paper's\n"
     "                      ablation variants (docs/offline_outputs.md)\n"
     "  --map-load FILE     relocalise into a map saved by an earlier run (teach and repeat)\n"
@@ -60,10 +60,12 @@ int main(int argc, char** argv) {
     } else if (arg == "--out") {
       if (!value(&options.out_dir)) return usageError("--out needs a directory");
     } else if (arg == "--config") {
-      if (!value(&options.config_path)) return usageError("--config needs a file");
+      std::string path;
+      if (!value(&path)) return usageError("--config needs a file");
+      options.config_paths.push_back(path);
     } else if (arg == "--mode") {
       if (!value(&options.mode)) return usageError("--mode needs a mode name");
-      const auto& modes = vims::OfflineOptions::modes();
+      const auto& modes = vims::SystemConfig::modes();
       if (std::find(modes.begin(), modes.end(), options.mode) == modes.end()) {
         return usageError("unknown mode '" + options.mode + "'");
       }

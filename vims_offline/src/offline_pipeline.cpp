@@ -57,7 +57,7 @@ using Clock = std::chrono::steady_clock;
 
 }  // namespace
 
-/// Runs FeatureTracker::process on the camera frames one at a time, in submission order, on a
+/// Runs VioSystem::track on the camera frames one at a time, in submission order, on a
 /// SerialWorker: with a thread, submit() returns at once and up to kFramesInFlight frames are
 /// tracked while the caller goes on; take() returns the oldest. Without one, submit() tracks
 /// inline. The tracker's state depends on its input images only, so both give the same
@@ -70,7 +70,7 @@ class OfflinePipeline::TrackerWorker {
   /// (marginalisation at keyframes) instead of waiting for it at every frame.
   static constexpr std::size_t kFramesInFlight = 3;
 
-  TrackerWorker(FeatureTracker* tracker, bool threaded) : tracker_(tracker), worker_(threaded, kFramesInFlight) {}
+  TrackerWorker(VioSystem* vio, bool threaded) : vio_(vio), worker_(threaded, kFramesInFlight) {}
 
   /// Frames submitted and not yet taken.
   std::size_t pending() const { return pending_; }
@@ -84,7 +84,7 @@ class OfflinePipeline::TrackerWorker {
       try {
         const Clock::time_point start = Clock::now();
         const double cpu_start = threadCpuSeconds();
-        job.tracked = tracker_->process(job.frame);  // the tracker is used by the worker only
+        job.tracked = vio_->track(job.frame);  // the tracker is used by the worker only
         job.ms = millisecondsSince(start);
         job.cpu_s = threadCpuSeconds() - cpu_start;
       } catch (...) {
@@ -114,7 +114,7 @@ class OfflinePipeline::TrackerWorker {
   }
 
  private:
-  FeatureTracker* tracker_;
+  VioSystem* vio_;
   std::size_t pending_ = 0;  ///< caller side only
   std::mutex mutex_;
   std::condition_variable ready_;
@@ -122,34 +122,14 @@ class OfflinePipeline::TrackerWorker {
   SerialWorker worker_;      ///< last: its thread stops before the members above go
 };
 
-SystemConfig SystemConfig::load(const std::string& path, const SequenceConfig& sequence) {
-  SystemConfig config;
-  const ConfigReader root = path.empty() ? ConfigReader::fromString("{}", "built-in defaults") : ConfigReader::fromFile(path);
-  root.rejectUnknownKeys({"sonar", "magnetometer", "tracker", "estimator", "pose_graph"});
-  config.pose_graph = PoseGraphManagerOptions::fromReader(root.childOrEmpty("pose_graph"));
-  config.tracker = TrackerOptions::fromReader(root.childOrEmpty("tracker"));
-  config.estimator = EstimatorOptions::fromReader(root.childOrEmpty("estimator"));
-  config.sonar = SonarFilterOptions::fromReader(root.childOrEmpty("sonar"));
-  const ConfigReader mag = root.childOrEmpty("magnetometer");
-  config.magnetometer = MagnetometerOptions::fromReader(mag);
-  config.magnetometer.validateFor(sequence.magnetometer, mag);
-  return config;
-}
-
 OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger)
     : options_(options), logger_(std::move(logger)) {
   paths_ = SequencePaths::resolve(options_.sequence_dir);
   std::vector<std::string> unknown;
   sequence_ = SequenceConfig::load(paths_.yaml, &unknown);
   for (const auto& key : unknown) logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
-  config_ = SystemConfig::load(options_.config_path, sequence_);
-  const auto& modes = OfflineOptions::modes();
-  if (std::find(modes.begin(), modes.end(), options_.mode) == modes.end()) {
-    throw std::runtime_error("unknown mode '" + options_.mode + "'");
-  }
-  // no_sonar is the estimator's ablation; the others select the pose graph's loop-closing mode.
-  config_.estimator.use_sonar = options_.mode != "no_sonar" && config_.estimator.use_sonar;
-  config_.pose_graph.mode = loopClosingModeFromString(options_.mode == "no_sonar" ? "full" : options_.mode);
+  config_ = SystemConfig::load(options_.config_paths, sequence_);
+  config_.applyMode(options_.mode);
   // The offline runner must be deterministic: the pose graph works inline in the feed calls.
   config_.pose_graph.synchronous = true;
   std::error_code ec;
@@ -163,12 +143,11 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
                                                               sequence_.imu.gravity, logger_);
   sonar_csv_ = std::make_unique<SonarCsvWriter>((out / "sonar_filtered.csv").string());
   signature_csv_ = std::make_unique<SignatureCsvWriter>((out / "mag_signatures.csv").string());
-  tracker_ = std::make_unique<FeatureTracker>(sequence_.camera, config_.tracker, logger_);
   if (options_.threads != 1 && options_.threads != 2) {
     throw std::runtime_error("threads must be 1 or 2, got " + std::to_string(options_.threads));
   }
-  tracker_worker_ = std::make_unique<TrackerWorker>(tracker_.get(), options_.threads == 2);
-  estimator_ = std::make_unique<VioEstimator>(sequence_, config_.estimator, logger_);
+  vio_ = std::make_unique<VioSystem>(sequence_, config_, logger_);
+  tracker_worker_ = std::make_unique<TrackerWorker>(vio_.get(), options_.threads == 2);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
   seabed_csv_ = std::make_unique<std::ofstream>((out / "seabed.csv").string());
   if (!*seabed_csv_) throw std::runtime_error("cannot write " + (out / "seabed.csv").string());
@@ -186,11 +165,6 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   // geomagnetic samples make up the rest.
   pose_graph_worker_ = std::make_unique<SerialWorker>(options_.threads == 2, 100);
   loops_csv_ = std::make_unique<LoopCsvWriter>((out / "loops.csv").string());
-}
-
-const std::vector<std::string>& OfflineOptions::modes() {
-  static const std::vector<std::string> kModes = {"full", "vi_slam", "no_sonar", "no_alter", "no_orb", "no_geom"};
-  return kModes;
 }
 
 OfflinePipeline::~OfflinePipeline() = default;
@@ -226,7 +200,7 @@ void OfflinePipeline::timePoseGraph(bool is_keyframe, Call&& call) {
 void OfflinePipeline::onImu(const ImuSample& sample) {
   signature_extractor_->feedImu(sample);
   const double cpu_start = threadCpuSeconds();
-  estimator_->feedImu(sample);
+  vio_->feedImu(sample);
   backend_cpu_s_ += threadCpuSeconds() - cpu_start;
   drainEstimator();
 }
@@ -249,7 +223,7 @@ void OfflinePipeline::feedTracked(const TrackedResult& tracked) {
   frontend_ms_.add(tracked.ms);
   frontend_cpu_s_ += tracked.cpu_s;
   const double cpu_start = threadCpuSeconds();
-  estimator_->feedFrame(tracked.tracked, tracked.frame.image);
+  vio_->feedTracked(tracked.tracked, tracked.frame.image);
   backend_cpu_s_ += threadCpuSeconds() - cpu_start;
   drainEstimator();
 }
@@ -259,19 +233,21 @@ void OfflinePipeline::feedTrackedFrames() {
 }
 
 void OfflinePipeline::drainEstimator() {
-  for (const VioFrameResult& r : estimator_->takeFrameResults()) {
-    backend_ms_.add(r.backend_ms);
-    if (r.status == VioStatus::kWaitingForImu || r.status == VioStatus::kReset) continue;
-    // vio.tum: the body pose at the image stamp as recorded (the estimator moves its state from
-    // the td-corrected exposure time to the stamp), so the file lives on the bag clock.
-    vio_tum_->write(r.t_stamp, r.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(r.T_odom_b_at_stamp.linear()));
+  VioOutputs outputs = vio_->takeOutputs();
+  for (const double ms : outputs.backend_ms) backend_ms_.add(ms);
+  for (const double t : outputs.non_finite_stamps) {
+    logger_->warnThrottled("offline", "non_finite", t, 5.0,
+                           VIMS_STR("the VIO frame at t=" << t << " has a non-finite state: left out of vio.tum"));
+  }
+  for (const VioFrameResult& r : outputs.poses) {
+    writeVioTumRow(vio_tum_.get(), r);
     *seabed_csv_ << r.t_stamp << ',' << r.T_odom_b.translation().z() << ','
                  << (r.seabed_height ? *r.seabed_height : std::numeric_limits<double>::quiet_NaN()) << ','
                  << r.seabed_slope.x() << ',' << r.seabed_slope.y() << ',' << r.sonar_factors << ','
                  << r.pressure_factors << '\n';
     ++vio_frames_;
   }
-  for (KeyframeData& keyframe : estimator_->takeKeyframes()) {
+  for (KeyframeData& keyframe : outputs.keyframes) {
     ++vio_keyframes_;
     if (!pose_graph_) continue;
     keyframe.image = keyframe.image.clone();  // the task may run after the frame's buffer is reused
@@ -291,11 +267,11 @@ void OfflinePipeline::onSonar(const SonarRange& range) {
   sonar_filter_->feed(range, &sonar_results_);
   for (const auto& result : sonar_results_) {
     sonar_csv_->write(result);
-    estimator_->feedSonar(result);
+    vio_->feedSonar(result);
   }
 }
 
-void OfflinePipeline::onPressure(const PressureSample& sample) { estimator_->feedPressure(sample); }
+void OfflinePipeline::onPressure(const PressureSample& sample) { vio_->feedPressure(sample); }
 
 void OfflinePipeline::onMag(const MagSample& sample) {
   signature_windows_.clear();
@@ -403,9 +379,9 @@ OfflineSummary OfflinePipeline::run() {
       frontend_cpu_s_ + backend_cpu_s_ > 0 ? span / (frontend_cpu_s_ + backend_cpu_s_) : 0.0;
   summary.vio_frames = vio_frames_;
   summary.vio_keyframes = vio_keyframes_;
-  summary.vio_resets = estimator_->resets();  // also resets from IMU input (gap, clock)
-  summary.vio_sessions = estimator_->session() + 1;
-  summary.vio_td_s = estimator_->td();
+  summary.vio_resets = vio_->estimator().resets();  // also resets from IMU input (gap, clock)
+  summary.vio_sessions = vio_->estimator().session() + 1;
+  summary.vio_td_s = vio_->estimator().td();
   signature_csv_->flush();
   summary.sonar = sonar_filter_->stats();
   summary.magnetometer = signature_extractor_->stats();
@@ -433,7 +409,9 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "# vims_offline run summary (columns and files: docs/offline_outputs.md)\n";
   out << "sequence: " << s.sequence_name << "\n";
   out << "sequence_dir: " << fs::absolute(options_.sequence_dir).string() << "\n";
-  out << "config: " << (options_.config_path.empty() ? "built-in defaults" : options_.config_path) << "\n";
+  std::string config_files;
+  for (const std::string& path : options_.config_paths) config_files += (config_files.empty() ? "" : " ") + path;
+  out << "config: " << (config_files.empty() ? "built-in defaults" : config_files) << "\n";
   out << "wall_time_s: " << s.wall_time_s << "\n";
   out << "sequence_duration_s: " << s.sequence_duration_s << "\n";
   out << "real_time_factor: " << s.real_time_factor << "\n";

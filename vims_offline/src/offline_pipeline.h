@@ -17,22 +17,18 @@
 #include "vims_common/latency_histogram.h"
 #include "vims_common/log.h"
 #include "vims_common/trajectory_io.h"
-#include "vims_estimator/estimator_options.h"
-#include "vims_estimator/vio_estimator.h"
-#include "vims_tracking/feature_tracker.h"
-#include "vims_tracking/tracker_options.h"
-#include "vims_magnetometer/magnetometer_options.h"
 #include "vims_magnetometer/signature_csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
-#include "vims_sonar/sonar_filter_options.h"
 #include "vims_common/sensor_data.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_ros/sequence_bag_reader.h"
+#include "vims_system/system_config.h"
+#include "vims_system/vio_system.h"
 
 #include "serial_worker.h"
 
@@ -41,12 +37,10 @@ namespace vims {
 struct OfflineOptions {
   std::string sequence_dir;
   std::string out_dir;
-  std::string config_path;  ///< system configuration (sections as in config/<module>.yaml); empty = defaults
+  /// The system configuration's files (SystemConfig::load); none: the built-in defaults.
+  std::vector<std::string> config_paths;
   bool show_progress = true;
-  /// The paper's ablation variants, all on the same code path (docs/offline_outputs.md):
-  /// "full" (default); "no_sonar" (estimator.use_sonar forced to false; the sonar filter still
-  /// runs and writes sonar_filtered.csv); "vi_slam", "no_alter", "no_orb", "no_geom" (the pose
-  /// graph's loop-closing modes, docs/pose_graph.md).
+  /// One of SystemConfig::modes() (the sonar filter runs and writes sonar_filtered.csv in every mode).
   std::string mode = "full";
   std::string map_load;  ///< a saved map to relocalise into (teach and repeat); empty: none
   std::string map_save;  ///< where to save the map at the end; empty: not saved
@@ -60,22 +54,6 @@ struct OfflineOptions {
   /// The odometry alone (sensor front-ends, tracker, estimator): no pose graph, so no
   /// global.tum, loops.csv or map; for measuring the VIO's own speed (bench/vio_seeds.sh).
   bool vio_only = false;
-
-  /// The modes --mode accepts.
-  static const std::vector<std::string>& modes();
-};
-
-/// The system configuration: one section per module, each with the keys of config/<module>.yaml. Every section and key
-/// is optional (defaults are the option structs' defaults); unknown ones are errors.
-struct SystemConfig {
-  SonarFilterOptions sonar;
-  MagnetometerOptions magnetometer;
-  TrackerOptions tracker;
-  EstimatorOptions estimator;
-  PoseGraphManagerOptions pose_graph;
-
-  /// Reads `path` (empty: defaults) and validates it against the sequence's sensors.
-  static SystemConfig load(const std::string& path, const SequenceConfig& sequence);
 };
 
 /// What summary.yaml reports.
@@ -168,11 +146,10 @@ class OfflinePipeline {
   std::unique_ptr<SonarCsvWriter> sonar_csv_;
   std::unique_ptr<SignatureCsvWriter> signature_csv_;
   std::vector<SonarFilterResult> sonar_results_;       // reused buffers: no allocation per message
-  // Visual-inertial(-sonar) odometry: the runner owns the tracker and feeds the estimator.
-  std::unique_ptr<FeatureTracker> tracker_;
+  // Visual-inertial(-sonar) odometry; its tracking runs on tracker_worker_.
+  std::unique_ptr<VioSystem> vio_;
   class TrackerWorker;
-  std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs tracker_, inline or on its thread
-  std::unique_ptr<VioEstimator> estimator_;
+  std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs vio_'s tracking, inline or on its thread
   std::unique_ptr<TumWriter> vio_tum_;
   /// seabed.csv: the estimated seabed under the vehicle at every VIO frame (docs/offline_outputs.md).
   std::unique_ptr<std::ofstream> seabed_csv_;

@@ -30,6 +30,7 @@
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/loop_detector.h"
 #include "vims_pose_graph/pose_graph_manager.h"
+#include "vims_system/system_config.h"
 
 namespace fs = std::filesystem;
 using namespace vims;
@@ -44,7 +45,8 @@ const char* kUsage =
     "  --inputs FILE       a recording (pose_graph.record_inputs_path of vims_offline --config)\n"
     "  --out OUT           writes OUT/loops.csv and OUT/global.tum (as vims_offline; `vims_eval run` reads them)\n"
     "                      and OUT/optimisations.csv (one row per pose-graph solve: trigger, times, iterations)\n"
-    "  --options FILE      PoseGraphManagerOptions YAML (default: config/pose_graph.yaml under the package root)\n"
+    "  --options FILE      system configuration whose pose_graph section is used (default: config/pose_graph.yaml\n"
+    "                      under the package root)\n"
     "  --mode MODE         full, vi_slam, no_alter, no_orb or no_geom (default: the options' mode)\n"
     "  --package-root DIR  for relative vocabulary paths (default: current directory)\n"
     "  --diagnose          also write OUT/loop_diagnosis.csv (per ground-truth revisit keyframe) and\n"
@@ -127,8 +129,9 @@ int main(int argc, char** argv) {
     const SequencePaths paths = SequencePaths::resolve(sequence_dir);
     const SequenceConfig sequence = SequenceConfig::load(paths.yaml);
     if (options_file.empty()) options_file = (fs::path(package_root) / "config" / "pose_graph.yaml").string();
-    PoseGraphManagerOptions options = PoseGraphManagerOptions::fromReader(ConfigReader::fromFile(options_file));
-    if (!mode.empty()) options.mode = loopClosingModeFromString(mode);
+    SystemConfig config = SystemConfig::load({options_file}, sequence);
+    if (!mode.empty()) config.applyMode(mode);
+    PoseGraphManagerOptions& options = config.pose_graph;
     options.synchronous = true;
     options.record_inputs_path.clear();
     fs::create_directories(out_dir);

@@ -16,7 +16,7 @@
 
 #include "vims_common/keyframe_data.h"
 #include "vims_common/sequence_config.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/vocabulary.h"
 #include "vims_sim/camera_model.h"

@@ -119,12 +119,6 @@ pose_graph: {loop_loss: huber}
   EXPECT_EQ(PoseGraphManagerOptions::fromReader(ConfigReader::fromString(d.toYaml())).toYaml(), d.toYaml());
 }
 
-TEST(LoopClosingOptions, CommittedConfigEqualsTheDefaults) {
-  const PoseGraphManagerOptions file =
-      PoseGraphManagerOptions::fromReader(ConfigReader::fromFile(std::string(VIMS_SOURCE_DIR) + "/config/pose_graph.yaml"));
-  EXPECT_EQ(file.toYaml(), PoseGraphManagerOptions().toYaml());
-}
-
 TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
   auto error = [](const std::string& yaml) {
     return errorOf([&] { PoseGraphManagerOptions::fromReader(ConfigReader::fromString(yaml)); });

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/magnetic_submap.h"
 
 namespace vims {

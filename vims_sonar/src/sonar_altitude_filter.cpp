@@ -11,17 +11,6 @@ constexpr const char* kComponent = "sonar_filter";
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }  // namespace
 
-const char* sonarStatusName(SonarStatus status) {
-  switch (status) {
-    case SonarStatus::kOk: return "ok";
-    case SonarStatus::kOutlier: return "outlier";
-    case SonarStatus::kDropout: return "dropout";
-    case SonarStatus::kWarmingUp: return "warming_up";
-    case SonarStatus::kReset: return "reset";
-  }
-  return "?";
-}
-
 SonarAltitudeFilter::SonarAltitudeFilter(const SonarFilterOptions& options, const SonarCalibration& calibration,
                                          LoggerPtr logger)
     : options_(options),

@@ -47,9 +47,3 @@ TEST(SonarFilterOptions, FilterRejectsInvalidOptionsAtConstruction) {
   EXPECT_THROW(SonarAltitudeFilter(o, SonarCalibration{}), ConfigError);
 }
 
-TEST(SonarFilterOptions, ConfigFileStatesTheDefaults) {
-  // config/sonar.yaml documents the defaults; it must not drift from the struct.
-  const auto from_file =
-      SonarFilterOptions::fromReader(ConfigReader::fromFile(std::string(VIMS_SOURCE_DIR) + "/config/sonar.yaml"));
-  EXPECT_EQ(from_file.toYaml(), SonarFilterOptions{}.toYaml());
-}

@@ -35,7 +35,7 @@ class LossFunction;
 #include "vims_estimator/marginalization.h"
 #include "vims_estimator/pressure_depth_filter.h"
 #include "vims_estimator/seabed_relief.h"
-#include "vims_sonar/sonar_altitude_filter.h"
+#include "vims_common/sonar_altitude.h"
 #include "vims_tracking/feature_tracker.h"
 
 namespace vims {

@@ -1,13 +1,12 @@
-// vims_estimator_node: a thin ROS wrapper around the visual front end (vims::FeatureTracker) and
-// the sliding-window VIO (vims::VioEstimator), wired exactly as vims_offline wires them
-// (vims_offline/src/offline_pipeline.cpp): per IMU sample feedImu; per image tracker.process then
-// feedFrame; per filtered sonar range feedSonar; after each IMU sample and image the frame
-// results and keyframes are drained. Callbacks only convert and enqueue; one processing thread
-// makes these calls in arrival order, so a slow optimisation never blocks a callback.
+// vims_estimator_node: a thin ROS wrapper around vims::VioSystem (vims_system), the odometry that
+// vims_offline runs too: per IMU sample feedImu; per image track then feedTracked; per filtered
+// sonar range feedSonar; per pressure sample feedPressure; after each the outputs are taken.
+// Callbacks only convert and enqueue; one processing thread makes these calls in arrival order,
+// so a slow optimisation never blocks a callback.
 //
 // Subscribes  <topics.image of the sequence YAML> (sensor_msgs/Image, mono8/bgr8/...; others rejected)
 //             <topics.imu of the sequence YAML>   (sensor_msgs/Imu)
-//             sonar/filtered (sensor_msgs/Range): accepted ranges of vims_sonar_filter_node
+//             sonar/filtered (vims/FilteredSonarRange): the verdicts of vims_sonar_filter_node
 //             <topics.pressure of the sequence YAML> (sensor_msgs/FluidPressure), only when the
 //                              sequence YAML has a pressure section (contract version 2)
 // Publishes   vio/odometry      (nav_msgs/Odometry) optimised body pose at every processed frame,
@@ -23,11 +22,11 @@
 //                               (drawn only while someone subscribes)
 //             tf odom -> base_link (REP 105) at IMU rate (the propagated pose)
 // Params      ~sequence_config (string, required): the sequence YAML (calibration, topics)
-//             ~config_file     (string, optional): system configuration with optional sections
-//                              tracker and estimator (e.g. config/estimator.yaml; the sections
-//                              sonar, magnetometer and pose_graph are allowed and ignored here)
-//             ~mode            (string, default full): the ablation mode as vims_offline --mode;
-//                              no_sonar sets estimator.use_sonar false, the others do not concern the VIO
+//             ~config_file     (string or list of strings, optional): system configuration files
+//                              (vims::SystemConfig); the node uses the sections tracker and
+//                              estimator (e.g. config/estimator.yaml); empty = the defaults
+//             ~mode            (string, default full): the ablation mode as vims_offline --mode
+//                              (SystemConfig::applyMode); only no_sonar concerns the VIO
 //             ~image_topic, ~imu_topic, ~pressure_topic (string, optional): instead of topics.*
 //             ~odom_frame_id, ~body_frame_id (string, default odom, base_link)
 //             ~publish_tf (bool, default true)
@@ -46,7 +45,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
-#include <sensor_msgs/Range.h>
+#include <vims/FilteredSonarRange.h>
 #include <visualization_msgs/Marker.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <vims/Keyframe.h>
@@ -66,16 +65,16 @@
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/trajectory_io.h"
-#include "vims_estimator/estimator_options.h"
-#include "vims_estimator/vio_estimator.h"
 #include "vims_ros/bounded_queue.h"
 #include "vims_ros/conversions.h"
 #include "vims_ros/keyframe_conversions.h"
 #include "vims_ros/odometry_conversions.h"
+#include "vims_ros/node_config.h"
 #include "vims_ros/ros_logger.h"
+#include "vims_ros/sonar_conversions.h"
+#include "vims_system/system_config.h"
+#include "vims_system/vio_system.h"
 #include "vims_tracking/feature_drawing.h"
-#include "vims_tracking/feature_tracker.h"
-#include "vims_tracking/tracker_options.h"
 
 namespace {
 
@@ -97,33 +96,16 @@ struct NodeSettings {
   std::string output_dir;
 };
 
-/// The options of the VIO in a system configuration file (the sections vims_offline --config reads).
-struct VioConfig {
-  vims::TrackerOptions tracker;
-  vims::EstimatorOptions estimator;
-
-  static VioConfig load(const std::string& path) {
-    VioConfig config;
-    const vims::ConfigReader root = path.empty() ? vims::ConfigReader::fromString("{}", "built-in defaults")
-                                                 : vims::ConfigReader::fromFile(path);
-    root.rejectUnknownKeys({"sonar", "magnetometer", "tracker", "estimator", "pose_graph"});
-    config.tracker = vims::TrackerOptions::fromReader(root.childOrEmpty("tracker"));
-    config.estimator = vims::EstimatorOptions::fromReader(root.childOrEmpty("estimator"));
-    return config;
-  }
-};
-
 /// One input for the processing thread, in arrival order.
 using InputEvent = std::variant<vims::ImuSample, vims::CameraFrame, vims::SonarFilterResult, vims::PressureSample>;
 
 class EstimatorNode {
  public:
-  EstimatorNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const VioConfig& config,
+  EstimatorNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::SystemConfig& config,
                 NodeSettings settings)
       : sequence_(sequence),
         settings_(std::move(settings)),
-        tracker_(sequence.camera, config.tracker, vims::rosLogger()),
-        estimator_(sequence, config.estimator, vims::rosLogger()),
+        vio_(sequence, config, vims::rosLogger()),
         queue_(static_cast<std::size_t>(settings_.queue_size)) {
     if (!settings_.output_dir.empty()) {
       std::error_code ec;
@@ -202,22 +184,13 @@ class EstimatorNode {
     enqueue(std::move(frame), "image");
   }
 
-  void onSonar(const sensor_msgs::Range::ConstPtr& msg) {
-    vims::SonarRange range;
+  void onSonar(const vims::FilteredSonarRange::ConstPtr& msg) {
+    vims::SonarFilterResult result;
     std::string why;
-    if (!vims::toSonarRange(*msg, &range, &why) || !std::isfinite(range.range) || !(range.range > 0.0)) {
-      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS,
-                               "filtered sonar range dropped: " << (why.empty() ? "not a positive finite range" : why));
+    if (!vims::toSonarFilterResult(*msg, &result, &why)) {
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "filtered sonar range dropped: " << why);
       return;
     }
-    // vims_sonar_filter_node publishes only accepted ranges, with the filtered value as range.
-    vims::SonarFilterResult result;
-    result.t = range.t;
-    result.raw = range.range;
-    result.filtered = range.range;
-    result.has_estimate = true;
-    result.accepted = true;
-    result.status = vims::SonarStatus::kOk;
     enqueue(result, "sonar range");
   }
 
@@ -256,9 +229,9 @@ class EstimatorNode {
       } else if (const auto* frame = std::get_if<vims::CameraFrame>(&*event)) {
         processImage(*frame);
       } else if (const auto* pressure = std::get_if<vims::PressureSample>(&*event)) {
-        estimator_.feedPressure(*pressure);
+        vio_.feedPressure(*pressure);
       } else {
-        estimator_.feedSonar(std::get<vims::SonarFilterResult>(*event));
+        vio_.feedSonar(std::get<vims::SonarFilterResult>(*event));
         drainEstimator();  // a frame waiting for this range may have been processed
       }
     }
@@ -267,10 +240,10 @@ class EstimatorNode {
   }
 
   void processImu(const vims::ImuSample& sample) {
-    estimator_.feedImu(sample);
+    vio_.feedImu(sample);
     latest_gyro_ = sample.gyro;
     drainEstimator();
-    const std::optional<vims::VioImuState> state = estimator_.imuPropagatedState();
+    const std::optional<vims::VioImuState> state = vio_.estimator().imuPropagatedState();
     if (!state || state->t < sample.t - 1e-9) return;  // not initialised, or no propagation to this sample
     const Eigen::Vector3d omega_b = latest_gyro_ - gyro_bias_;
     nav_msgs::Odometry odometry;
@@ -285,28 +258,24 @@ class EstimatorNode {
   }
 
   void processImage(const vims::CameraFrame& frame) {
-    const vims::TrackedFrame tracked = tracker_.process(frame);
-    estimator_.feedFrame(tracked, frame.image);
+    const vims::TrackedFrame tracked = vio_.track(frame);
+    vio_.feedTracked(tracked, frame.image);
     drainEstimator();
     if (tracked_image_pub_.getNumSubscribers() > 0 && tracked.accepted()) publishTrackedImage(frame, tracked);
   }
 
   void drainEstimator() {
-    for (const vims::VioFrameResult& r : estimator_.takeFrameResults()) {
-      if (r.status == vims::VioStatus::kWaitingForImu || r.status == vims::VioStatus::kReset) continue;
-      if (!vims::isFinitePose(r.T_odom_b_at_stamp) || !r.v_odom_b.allFinite()) {
-        ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "frame at t=" << r.t_stamp << " has a non-finite state: skipped");
-        continue;
-      }
-      // vio.tum exactly as vims_offline writes it: the pose at the recorded image stamp.
-      if (vio_tum_) {
-        vio_tum_->write(r.t_stamp, r.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(r.T_odom_b_at_stamp.linear()));
-      }
+    const vims::VioOutputs outputs = vio_.takeOutputs();
+    for (const double t : outputs.non_finite_stamps) {
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "frame at t=" << t << " has a non-finite state: skipped");
+    }
+    for (const vims::VioFrameResult& r : outputs.poses) {
+      if (vio_tum_) vims::writeVioTumRow(vio_tum_.get(), r);  // exactly as vims_offline writes it
       ++vio_frames_;
       if (r.gyro_bias.allFinite()) gyro_bias_ = r.gyro_bias;
       publishFrameResult(r);
     }
-    for (const vims::KeyframeData& keyframe : estimator_.takeKeyframes()) {
+    for (const vims::KeyframeData& keyframe : outputs.keyframes) {
       vims::Keyframe msg;
       std::string why;
       if (!vims::toKeyframeMsg(keyframe, settings_.odom_frame_id, &msg, &why)) {
@@ -402,8 +371,7 @@ class EstimatorNode {
   const vims::SequenceConfig sequence_;
   const NodeSettings settings_;
   // Used by the processing thread only (after construction).
-  vims::FeatureTracker tracker_;
-  vims::VioEstimator estimator_;
+  vims::VioSystem vio_;
   std::unique_ptr<vims::TumWriter> vio_tum_;
   long vio_frames_ = 0;
   Eigen::Vector3d latest_gyro_ = Eigen::Vector3d::Zero();
@@ -431,19 +399,12 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "vims_estimator");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
-  std::string sequence_path, config_path, mode;
+  std::string sequence_path, mode;
   if (!pnh.getParam("sequence_config", sequence_path)) {
     ROS_FATAL("parameter ~sequence_config (path of the sequence YAML) is required");
     return 1;
   }
-  pnh.param<std::string>("config_file", config_path, "");
   pnh.param<std::string>("mode", mode, "full");
-  const std::vector<std::string> modes = {"full", "vi_slam", "no_sonar", "no_alter", "no_orb", "no_geom"};
-  if (std::find(modes.begin(), modes.end(), mode) == modes.end()) {
-    ROS_FATAL_STREAM("parameter ~mode: unknown mode '" << mode
-                                                       << "' (full, vi_slam, no_sonar, no_alter, no_orb or no_geom)");
-    return 1;
-  }
   NodeSettings settings;
   pnh.param<std::string>("odom_frame_id", settings.odom_frame_id, settings.odom_frame_id);
   pnh.param<std::string>("body_frame_id", settings.body_frame_id, settings.body_frame_id);
@@ -465,9 +426,8 @@ int main(int argc, char** argv) {
     std::vector<std::string> unknown;
     const vims::SequenceConfig sequence = vims::SequenceConfig::load(sequence_path, &unknown);
     for (const auto& key : unknown) ROS_WARN_STREAM(sequence_path << ": key '" << key << "' is not in the contract");
-    VioConfig config = VioConfig::load(config_path);
-    // The ablation modes exactly as vims_offline maps them: only no_sonar concerns the VIO.
-    config.estimator.use_sonar = mode != "no_sonar" && config.estimator.use_sonar;
+    vims::SystemConfig config = vims::SystemConfig::load(vims::configFilesParam(pnh), sequence);
+    config.applyMode(mode);
     settings.image_topic = pnh.param<std::string>("image_topic", sequence.topics.image);
     settings.imu_topic = pnh.param<std::string>("imu_topic", sequence.topics.imu);
     settings.pressure_topic = pnh.param<std::string>("pressure_topic", sequence.topics.pressure);

@@ -21,7 +21,7 @@
 #include <variant>
 
 #include "vims_common/keyframe_data.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 
 namespace vims {
 

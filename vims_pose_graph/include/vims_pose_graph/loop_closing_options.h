@@ -110,7 +110,7 @@ struct LoopDetectorOptions {
   /// A culled keyframe keeps its BoW vector (~5 KB; a submap is ~200 KB), though it is no loop
   /// candidate, so that `vims_eval place-recognition` can score every keyframe of a run. It is
   /// the only part of the map that grows with time once culling has stopped new submaps: false
-  /// on long missions (config/long_mission/), where memory then stops with the map.
+  /// on long missions (config/long_mission.yaml), where memory then stops with the map.
   bool keep_culled_bow_vectors = true;
 
   // --- magnetic stage

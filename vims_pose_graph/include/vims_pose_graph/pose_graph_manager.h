@@ -33,7 +33,7 @@
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/input_recording.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/loop_closing_options.h"

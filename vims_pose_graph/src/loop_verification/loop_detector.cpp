@@ -11,7 +11,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/known_vertical_pose.h"
 
 namespace vims {

@@ -16,7 +16,7 @@
 
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/pose_graph_outputs.h"
 
 #include "pose_graph_manager_core.h"

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 
 namespace vims {
 

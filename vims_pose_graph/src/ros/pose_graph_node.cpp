@@ -12,11 +12,13 @@
 //                                 their radius + ENU signature arrows), visual submaps (spheres)
 //             tf map -> odom      (REP 105), with every odometry message and after new keyframes
 // Params      ~sequence_config (string, required): the sequence YAML (camera, T_b_c, declination)
-//             ~options_file    (string, optional): PoseGraphManagerOptions, e.g. config/pose_graph.yaml;
-//                              empty = the defaults. `synchronous` is forced to false.
-//             ~mode            (string, optional): full | vi_slam | no_alter | no_orb | no_geom,
-//                              overrides the options' mode; no_sonar (the estimator's ablation)
-//                              means full here, as in vims_offline
+//             ~config_file     (string or list of strings, optional): system configuration files
+//                              (vims::SystemConfig); the node uses the section pose_graph (e.g.
+//                              config/pose_graph.yaml); empty = the defaults. `synchronous` is
+//                              forced to false.
+//             ~mode            (string, optional): an ablation mode as vims_offline --mode
+//                              (SystemConfig::applyMode), overriding pose_graph.mode; no_sonar
+//                              (the estimator's ablation) means full here
 //             ~package_root    (string): where relative vocabulary paths start; default: the path
 //                              of the `vims` package (roslib), required without roslib
 //             ~map_load        (string, optional): a saved map to relocalise against (teach and repeat)
@@ -58,7 +60,9 @@
 #include "vims_pose_graph/pose_graph_manager.h"
 #include "vims_ros/conversions.h"
 #include "vims_ros/keyframe_conversions.h"
+#include "vims_ros/node_config.h"
 #include "vims_ros/ros_logger.h"
+#include "vims_system/system_config.h"
 
 namespace {
 
@@ -432,12 +436,11 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "vims_pose_graph");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
-  std::string sequence_path, options_path, mode_name, map_load_path;
+  std::string sequence_path, mode_name, map_load_path;
   if (!pnh.getParam("sequence_config", sequence_path)) {
     ROS_FATAL("parameter ~sequence_config (path of the sequence YAML) is required");
     return 1;
   }
-  pnh.param<std::string>("options_file", options_path, "");
   pnh.param<std::string>("mode", mode_name, "");
   pnh.param<std::string>("map_load", map_load_path, "");
   NodeSettings settings;
@@ -467,18 +470,9 @@ int main(int argc, char** argv) {
     std::vector<std::string> unknown;
     const vims::SequenceConfig sequence = vims::SequenceConfig::load(sequence_path, &unknown);
     for (const auto& key : unknown) ROS_WARN_STREAM(sequence_path << ": key '" << key << "' is not in the contract");
-    vims::PoseGraphManagerOptions options =
-        options_path.empty() ? vims::PoseGraphManagerOptions{}
-                             : vims::PoseGraphManagerOptions::fromReader(vims::ConfigReader::fromFile(options_path));
-    if (mode_name == "no_sonar") mode_name = "full";  // the estimator's ablation; loop closing as full
-    if (!mode_name.empty()) {
-      try {
-        options.mode = vims::loopClosingModeFromString(mode_name);
-      } catch (const std::invalid_argument& e) {
-        ROS_FATAL_STREAM("parameter ~mode: " << e.what());
-        return 1;
-      }
-    }
+    vims::SystemConfig config = vims::SystemConfig::load(vims::configFilesParam(pnh), sequence);
+    if (!mode_name.empty()) config.applyMode(mode_name);
+    vims::PoseGraphManagerOptions& options = config.pose_graph;
     if (options.synchronous) {
       ROS_INFO("pose graph options: synchronous ignored, the node uses the worker threads");
       options.synchronous = false;

@@ -13,7 +13,7 @@
 #include <string>
 
 #include "vims_common/keyframe_data.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_common/magnetic_signature.h"
 
 namespace vims {
 
