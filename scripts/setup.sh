@@ -4,7 +4,7 @@
 set -eo pipefail
 
 PACKAGES=(
-  build-essential cmake git
+  build-essential cmake git clang-format
   ros-core-dev rosbash
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev libcv-bridge-dev libimage-transport-dev
   libnav-msgs-dev libvisualization-msgs-dev

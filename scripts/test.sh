@@ -4,7 +4,7 @@
 set -eo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-bash scripts/build.sh --tests
+VIMS_WARNINGS_AS_ERRORS=ON bash scripts/build.sh --tests  # a new compiler warning fails the tests
 source scripts/env.sh
 mkdir -p "$ROS_HOME"
 rm -rf "$VIMS_BUILD/test_results"   # ctest does not clean old XML results

@@ -65,7 +65,8 @@ TEST(CommittedConfigs, AChangedValueIsDetected) {
 /// config/long_mission.yaml: what the profile is for (a map that stops growing, bench/soak.py).
 TEST(CommittedConfigs, LongMissionProfileCullsRedundantViews) {
   vims::PoseGraphManagerOptions profile;
-  ASSERT_NO_THROW(profile = vims::PoseGraphManagerOptions::fromReader(committedConfig("long_mission.yaml").child("pose_graph")));
+  ASSERT_NO_THROW(
+      profile = vims::PoseGraphManagerOptions::fromReader(committedConfig("long_mission.yaml").child("pose_graph")));
   EXPECT_FALSE(profile.loop.keep_culled_bow_vectors);
   EXPECT_GT(profile.loop.redundant_submap_radius_m, vims::PoseGraphManagerOptions().loop.redundant_submap_radius_m);
 }

@@ -11,8 +11,6 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
-#include "vims_test/tool_runner.h"
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -22,6 +20,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "vims_test/tool_runner.h"
 
 namespace fs = std::filesystem;
 
@@ -48,8 +48,8 @@ OfflineRun runOffline(const std::string& sequence_name, const fs::path& out) {
   run.out = out;
   fs::remove_all(out);
   fs::create_directories(out);
-  run.result = runCommand(tool("vims_offline") + " --quiet --sequence " + run.sequence.string() + " --out " +
-                          out.string());
+  run.result =
+      runCommand(tool("vims_offline") + " --quiet --sequence " + run.sequence.string() + " --out " + out.string());
   // Keep the log next to the outputs (for a failing run, and for the fault cases' reports).
   std::ofstream(out / "offline.log") << run.result.output;
   return run;
@@ -167,11 +167,11 @@ bool contains(const std::string& text, const std::string& what) { return text.fi
 
 /// One sensor output over a fault: rows inside [begin, end) and how they are, then the recovery.
 struct RecoveryScan {
-  int inside = 0;                ///< rows inside the fault
-  int inside_ok = 0;             ///< of those, rows in the good state
-  double first_ok_after = NAN;   ///< first good row from the fault's end on
-  int settled = 0;               ///< rows from fault.end + settle_s on
-  int settled_ok = 0;            ///< of those, rows in the good state
+  int inside = 0;               ///< rows inside the fault
+  int inside_ok = 0;            ///< of those, rows in the good state
+  double first_ok_after = NAN;  ///< first good row from the fault's end on
+  int settled = 0;              ///< rows from fault.end + settle_s on
+  int settled_ok = 0;           ///< of those, rows in the good state
 };
 
 /// Scans `csv` by its `t` column; a row is good when `column` equals `good_value`.
@@ -199,8 +199,8 @@ RecoveryScan scanRecovery(const Csv& csv, const std::string& column, const std::
 
 /// The clean run a fault case is compared with: the same seed, world and length without a fault.
 struct CleanReference {
-  const char* sequence;  ///< test sequence name (VIMS_TEST_DATA/<sequence>)
-  const char* run;       ///< its offline run's folder name below runDir
+  const char* sequence;     ///< test sequence name (VIMS_TEST_DATA/<sequence>)
+  const char* run;          ///< its offline run's folder name below runDir
   double max_global_ate_m;  ///< about twice what the clean run measures (commit 3d8bce4)
   double max_vio_ate_m;
 };
@@ -224,8 +224,8 @@ void expectFinishedAndAccurate(const OfflineRun& run, const SequenceTruth& truth
   constexpr double kMaxAteRatio = 2.0;
   ASSERT_EQ(run.result.exit_code, 0) << run.result.output;
   ASSERT_TRUE(contains(run.result.output, "VIMS_OFFLINE sequence=")) << run.result.output;
-  for (const char* file : {"summary.yaml", "vio.tum", "global.tum", "loops.csv", "sonar_filtered.csv",
-                           "mag_signatures.csv"}) {
+  for (const char* file :
+       {"summary.yaml", "vio.tum", "global.tum", "loops.csv", "sonar_filtered.csv", "mag_signatures.csv"}) {
     ASSERT_TRUE(fs::exists(run.out / file)) << file;
   }
   const YAML::Node summary = YAML::LoadFile((run.out / "summary.yaml").string());

@@ -38,8 +38,8 @@ bool finite(const geometry_msgs::Pose& p) {
 bool finite(const nav_msgs::Odometry& m) {
   const auto& l = m.twist.twist.linear;
   const auto& a = m.twist.twist.angular;
-  return finite(m.pose.pose) && std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) &&
-         std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
+  return finite(m.pose.pose) && std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) && std::isfinite(a.x) &&
+         std::isfinite(a.y) && std::isfinite(a.z);
 }
 
 /// Messages per second of sensor time over a stream's span.
@@ -139,10 +139,11 @@ TEST(Replay, OdometryTfKeyframesAndGlobalPathAreRightAndAgreeWithGroundTruth) {
   const double rmse = std::sqrt(sum_sq / static_cast<double>(p_vio.size()));
   const double final_error = (S.transformPoint(p_vio.back()) - p_gt.back()).norm();
   const double travelled = (p_gt.back() - p_gt.front()).norm();
-  std::printf("VIMS_REPLAY_TEST frames=%zu imu_rate=%.1f frame_rate=%.2f keyframes=%d global_poses=%zu rmse_m=%.4f "
-              "final_error_m=%.4f start_to_end_m=%.2f\n",
-              odometry.size(), rateHz(imu_odometry), rateHz(odometry), keyframes, global_path.poses.size(), rmse,
-              final_error, travelled);
+  std::printf(
+      "VIMS_REPLAY_TEST frames=%zu imu_rate=%.1f frame_rate=%.2f keyframes=%d global_poses=%zu rmse_m=%.4f "
+      "final_error_m=%.4f start_to_end_m=%.2f\n",
+      odometry.size(), rateHz(imu_odometry), rateHz(odometry), keyframes, global_path.poses.size(), rmse, final_error,
+      travelled);
   EXPECT_LT(rmse, kMaxRmseM);
   EXPECT_LT(final_error, kMaxFinalErrorM);
 }

@@ -7,14 +7,14 @@
 #include <sensor_msgs/Imu.h>
 #include <yaml-cpp/yaml.h>
 
-#include "vims_test/tool_runner.h"
-
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <string>
+
+#include "vims_test/tool_runner.h"
 
 namespace fs = std::filesystem;
 
@@ -91,8 +91,8 @@ TEST(OfflineRunner, RunsWithoutOptionalSensorsAndSaysSo) {
 
 TEST(OfflineRunner, MissingSequenceFilesAreNamed) {
   const fs::path empty = freshDir("seq_empty");
-  CommandResult r = runCommand(offlineBinary() + " --quiet --sequence " + empty.string() + " --out " +
-                               (empty / "out").string());
+  CommandResult r =
+      runCommand(offlineBinary() + " --quiet --sequence " + empty.string() + " --out " + (empty / "out").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("has no bag"), std::string::npos) << r.output;
 

@@ -71,7 +71,9 @@ bool finite(const nav_msgs::Path& m) {
 }
 /// raw may be +inf (no echo, REP 117), never NaN.
 bool finite(const vims::FilteredSonarRange& m) { return finite(m.filtered) && !std::isnan(m.raw); }
-bool finite(const sensor_msgs::MagneticField& m) { return finite(m.magnetic_field) && finite(m.magnetic_field_covariance); }
+bool finite(const sensor_msgs::MagneticField& m) {
+  return finite(m.magnetic_field) && finite(m.magnetic_field_covariance);
+}
 bool finite(const vims::MagneticSignature& m) {
   return finite(m.frequency_hz) && finite(m.amplitude_enu) && finite(m.geomagnetic_body) && finite(m.snr);
 }
@@ -162,12 +164,18 @@ class OutputMonitor {
 ros::Time hostileStamp(int i, double rate_hz) {
   const double nominal = kStart + i / rate_hz;
   switch (i % 10) {
-    case 3: return ros::Time(0, 0);
-    case 5: return ros::Time(nominal - 50.0);
-    case 7: return ros::Time(kStart + (i - 1) / rate_hz);  // the previous message's stamp
-    case 8: return ros::Time(nominal + 1.0 / rate_hz);     // swapped with the next one
-    case 9: return ros::Time(nominal - 1.0 / rate_hz);
-    default: return ros::Time(nominal);
+    case 3:
+      return ros::Time(0, 0);
+    case 5:
+      return ros::Time(nominal - 50.0);
+    case 7:
+      return ros::Time(kStart + (i - 1) / rate_hz);  // the previous message's stamp
+    case 8:
+      return ros::Time(nominal + 1.0 / rate_hz);  // swapped with the next one
+    case 9:
+      return ros::Time(nominal - 1.0 / rate_hz);
+    default:
+      return ros::Time(nominal);
   }
 }
 
@@ -181,15 +189,33 @@ vims::FilteredSonarRange hostileFilteredRange(int i, std::mt19937& rng) {
   m.has_estimate = m.accepted = true;
   m.status = vims::FilteredSonarRange::STATUS_OK;
   switch (i % 11) {
-    case 0: m.filtered = std::numeric_limits<double>::quiet_NaN(); break;
-    case 1: m.raw = std::numeric_limits<double>::quiet_NaN(); break;
-    case 2: m.filtered = -1.0; break;
-    case 3: m.filtered = 1e30; break;  // finite but absurd
-    case 4: m.status = 200; break;
-    case 5: m.has_estimate = false; break;  // accepted without an estimate
-    case 6: m.accepted = false; m.status = vims::FilteredSonarRange::STATUS_OUTLIER; break;
-    case 7: m.filtered = std::numeric_limits<double>::infinity(); break;
-    default: break;
+    case 0:
+      m.filtered = std::numeric_limits<double>::quiet_NaN();
+      break;
+    case 1:
+      m.raw = std::numeric_limits<double>::quiet_NaN();
+      break;
+    case 2:
+      m.filtered = -1.0;
+      break;
+    case 3:
+      m.filtered = 1e30;
+      break;  // finite but absurd
+    case 4:
+      m.status = 200;
+      break;
+    case 5:
+      m.has_estimate = false;
+      break;  // accepted without an estimate
+    case 6:
+      m.accepted = false;
+      m.status = vims::FilteredSonarRange::STATUS_OUTLIER;
+      break;
+    case 7:
+      m.filtered = std::numeric_limits<double>::infinity();
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -205,17 +231,33 @@ sensor_msgs::Range hostileRange(int i, std::mt19937& rng) {
   std::normal_distribution<float> noise(0.0f, 0.02f);
   m.range = 3.0f + noise(rng);
   switch (i % 13) {
-    case 0: m.range = std::numeric_limits<float>::quiet_NaN(); break;
-    case 1: m.range = std::numeric_limits<float>::infinity(); break;
-    case 2: m.range = -std::numeric_limits<float>::infinity(); break;
-    case 3: m.range = -1.0f; break;
-    case 4: m.range = 0.0f; break;
-    case 5: m.range = 1e30f; break;
+    case 0:
+      m.range = std::numeric_limits<float>::quiet_NaN();
+      break;
+    case 1:
+      m.range = std::numeric_limits<float>::infinity();
+      break;
+    case 2:
+      m.range = -std::numeric_limits<float>::infinity();
+      break;
+    case 3:
+      m.range = -1.0f;
+      break;
+    case 4:
+      m.range = 0.0f;
+      break;
+    case 5:
+      m.range = 1e30f;
+      break;
     case 6:  // a good range in a message whose sensor fields are NaN
       m.field_of_view = m.min_range = m.max_range = std::numeric_limits<float>::quiet_NaN();
       break;
-    case 7: m.max_range = std::numeric_limits<float>::infinity(); m.min_range = -1.0f; break;
-    default: break;
+    case 7:
+      m.max_range = std::numeric_limits<float>::infinity();
+      m.min_range = -1.0f;
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -233,16 +275,26 @@ sensor_msgs::Imu hostileImu(int i, std::mt19937& rng) {
   m.linear_acceleration.z = 9.81 + noise(rng);
   m.orientation_covariance[0] = -1.0;
   switch (i % 11) {
-    case 0: m.angular_velocity.y = kNaN; break;
-    case 1: m.linear_acceleration.z = kInf; break;
-    case 2: m.linear_acceleration.x = 1e30; m.angular_velocity.z = -1e30; break;
+    case 0:
+      m.angular_velocity.y = kNaN;
+      break;
+    case 1:
+      m.linear_acceleration.z = kInf;
+      break;
+    case 2:
+      m.linear_acceleration.x = 1e30;
+      m.angular_velocity.z = -1e30;
+      break;
     case 3:  // good rates, garbage in the fields VIMS does not use
       m.orientation.x = kNaN;
       m.orientation_covariance[0] = kNaN;
       m.angular_velocity_covariance[4] = kInf;
       break;
-    case 4: m.linear_acceleration.x = m.linear_acceleration.y = m.linear_acceleration.z = 0.0; break;  // free fall
-    default: break;
+    case 4:
+      m.linear_acceleration.x = m.linear_acceleration.y = m.linear_acceleration.z = 0.0;
+      break;  // free fall
+    default:
+      break;
   }
   return m;
 }
@@ -257,12 +309,23 @@ sensor_msgs::MagneticField hostileMag(int i, double rate_hz, std::mt19937& rng) 
   m.magnetic_field.y = 1e-6 + noise(rng);
   m.magnetic_field.z = -4e-5 + coil + noise(rng);
   switch (i % 7) {
-    case 0: m.magnetic_field.x = kNaN; break;
-    case 1: m.magnetic_field.z = -kInf; break;
-    case 2: m.magnetic_field.y = 1e10; break;
-    case 3: m.magnetic_field.x = m.magnetic_field.y = m.magnetic_field.z = 0.0; break;
-    case 4: m.magnetic_field_covariance[0] = kNaN; break;
-    default: break;
+    case 0:
+      m.magnetic_field.x = kNaN;
+      break;
+    case 1:
+      m.magnetic_field.z = -kInf;
+      break;
+    case 2:
+      m.magnetic_field.y = 1e10;
+      break;
+    case 3:
+      m.magnetic_field.x = m.magnetic_field.y = m.magnetic_field.z = 0.0;
+      break;
+    case 4:
+      m.magnetic_field_covariance[0] = kNaN;
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -290,7 +353,10 @@ sensor_msgs::Image noiseImage(uint32_t width, uint32_t height, std::mt19937& rng
 sensor_msgs::Image hostileImage(int i, int width, int height, std::mt19937& rng) {
   sensor_msgs::Image m;
   switch (i % 12) {
-    case 0: m = noiseImage(64, 48, rng); m.encoding = "rgb16"; break;
+    case 0:
+      m = noiseImage(64, 48, rng);
+      m.encoding = "rgb16";
+      break;
     case 1: {  // float image with NaN pixels
       m.width = 64, m.height = 48, m.encoding = "32FC1", m.step = 64 * 4;
       std::vector<float> px(64 * 48, std::numeric_limits<float>::quiet_NaN());
@@ -298,16 +364,42 @@ sensor_msgs::Image hostileImage(int i, int width, int height, std::mt19937& rng)
       std::memcpy(m.data.data(), px.data(), m.data.size());
       break;
     }
-    case 2: m = noiseImage(width, height, rng); m.encoding = "bayer_rggb8"; break;
-    case 3: m.encoding = "mono8"; break;  // empty: 0 x 0, no data
-    case 4: m.width = width, m.height = height, m.encoding = "mono8", m.step = width, m.data.resize(100); break;
-    case 5: m = noiseImage(width, height, rng); m.step = 10; break;  // step shorter than a row
-    case 6: m = noiseImage(64, 48, rng); break;                       // not the calibration's size
-    case 7: m = noiseImage(width, height, rng); m.encoding = "mono16"; m.is_bigendian = 1; break;
-    case 8: m = noiseImage(64, 48, rng); m.encoding = ""; break;
-    case 9: m = noiseImage(width, height, rng); m.encoding = "bgr8"; break;  // data is a third of a bgr8 image
-    case 10: m = noiseImage(width, height, rng); break;                      // well formed
-    case 11: m.width = 65535, m.height = 65535, m.encoding = "mono8", m.step = 65535, m.data.resize(16); break;
+    case 2:
+      m = noiseImage(width, height, rng);
+      m.encoding = "bayer_rggb8";
+      break;
+    case 3:
+      m.encoding = "mono8";
+      break;  // empty: 0 x 0, no data
+    case 4:
+      m.width = width, m.height = height, m.encoding = "mono8", m.step = width, m.data.resize(100);
+      break;
+    case 5:
+      m = noiseImage(width, height, rng);
+      m.step = 10;
+      break;  // step shorter than a row
+    case 6:
+      m = noiseImage(64, 48, rng);
+      break;  // not the calibration's size
+    case 7:
+      m = noiseImage(width, height, rng);
+      m.encoding = "mono16";
+      m.is_bigendian = 1;
+      break;
+    case 8:
+      m = noiseImage(64, 48, rng);
+      m.encoding = "";
+      break;
+    case 9:
+      m = noiseImage(width, height, rng);
+      m.encoding = "bgr8";
+      break;  // data is a third of a bgr8 image
+    case 10:
+      m = noiseImage(width, height, rng);
+      break;  // well formed
+    case 11:
+      m.width = 65535, m.height = 65535, m.encoding = "mono8", m.step = 65535, m.data.resize(16);
+      break;
   }
   m.header.stamp = hostileStamp(i, 10.0);
   m.header.frame_id = "camera";
@@ -348,22 +440,52 @@ vims::Keyframe hostileKeyframe(int i, int width, int height, std::mt19937& rng) 
     m.features.push_back(f);
   }
   switch (i % 14) {
-    case 0: m.pose.position.y = kNaN; break;
-    case 1: m.pose.orientation = geometry_msgs::Quaternion(); m.pose.orientation.w = 0.0; break;
-    case 2: m.pose.orientation.w = 2.0; break;
-    case 3: m.features[3].p_odom.z = kNaN; break;
-    case 4: m.features[5].u = std::numeric_limits<float>::infinity(); break;
-    case 5: m.image = noiseImage(64, 48, rng); m.image.encoding = "rgb16"; break;
-    case 6: m.image = noiseImage(64, 48, rng); m.image.height = 480; break;  // data does not match the size
-    case 7: m.features.clear(); break;                                          // empty image, no features
-    case 8: m.features[0].x_norm = 1e30f; m.features[1].p_odom.x = 1e30; break;  // finite but absurd
-    case 9: m.session = static_cast<uint32_t>(i); break;                         // a new session every time
+    case 0:
+      m.pose.position.y = kNaN;
+      break;
+    case 1:
+      m.pose.orientation = geometry_msgs::Quaternion();
+      m.pose.orientation.w = 0.0;
+      break;
+    case 2:
+      m.pose.orientation.w = 2.0;
+      break;
+    case 3:
+      m.features[3].p_odom.z = kNaN;
+      break;
+    case 4:
+      m.features[5].u = std::numeric_limits<float>::infinity();
+      break;
+    case 5:
+      m.image = noiseImage(64, 48, rng);
+      m.image.encoding = "rgb16";
+      break;
+    case 6:
+      m.image = noiseImage(64, 48, rng);
+      m.image.height = 480;
+      break;  // data does not match the size
+    case 7:
+      m.features.clear();
+      break;  // empty image, no features
+    case 8:
+      m.features[0].x_norm = 1e30f;
+      m.features[1].p_odom.x = 1e30;
+      break;  // finite but absurd
+    case 9:
+      m.session = static_cast<uint32_t>(i);
+      break;  // a new session every time
     case 10:
       if (i % 140 == 10) m.image = noiseImage(width, height, rng);  // described with ORB: kept rare (slow)
       break;
-    case 11: m.image = noiseImage(width, height, rng); m.image.encoding = "32FC1"; break;
-    case 12: for (auto& f : m.features) f.id = 7; break;  // duplicate feature ids
-    default: break;
+    case 11:
+      m.image = noiseImage(width, height, rng);
+      m.image.encoding = "32FC1";
+      break;
+    case 12:
+      for (auto& f : m.features) f.id = 7;
+      break;  // duplicate feature ids
+    default:
+      break;
   }
   return m;
 }
@@ -383,14 +505,31 @@ vims::MagneticSignature hostileSignature(int i) {
   m.snr = 50.0;
   m.valid = true;
   switch (i % 9) {
-    case 0: m.amplitude_enu.x = kNaN; break;
-    case 1: m.amplitude_enu.y = kNaN; m.snr = kNaN; m.valid = false; break;
-    case 2: m.snr = kInf; break;
-    case 3: m.frequency_hz = kNaN; break;
-    case 4: std::swap(m.window_start, m.window_end); break;
-    case 5: m.window_start = m.window_end = ros::Time(0, 0); break;
-    case 6: m.geomagnetic_body.x = m.geomagnetic_body.y = m.geomagnetic_body.z = 0.0; break;
-    default: break;
+    case 0:
+      m.amplitude_enu.x = kNaN;
+      break;
+    case 1:
+      m.amplitude_enu.y = kNaN;
+      m.snr = kNaN;
+      m.valid = false;
+      break;
+    case 2:
+      m.snr = kInf;
+      break;
+    case 3:
+      m.frequency_hz = kNaN;
+      break;
+    case 4:
+      std::swap(m.window_start, m.window_end);
+      break;
+    case 5:
+      m.window_start = m.window_end = ros::Time(0, 0);
+      break;
+    case 6:
+      m.geomagnetic_body.x = m.geomagnetic_body.y = m.geomagnetic_body.z = 0.0;
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -403,11 +542,20 @@ sensor_msgs::MagneticField hostileGeomagnetic(int i) {
   m.magnetic_field.y = 2e-5 * std::sin(0.001 * i);
   m.magnetic_field.z = -4e-5;
   switch (i % 6) {
-    case 0: m.magnetic_field.y = kNaN; break;
-    case 1: m.magnetic_field.x = kInf; break;
-    case 2: m.magnetic_field.x = m.magnetic_field.y = m.magnetic_field.z = 0.0; break;  // no direction
-    case 3: m.magnetic_field.z = 1e10; break;
-    default: break;
+    case 0:
+      m.magnetic_field.y = kNaN;
+      break;
+    case 1:
+      m.magnetic_field.x = kInf;
+      break;
+    case 2:
+      m.magnetic_field.x = m.magnetic_field.y = m.magnetic_field.z = 0.0;
+      break;  // no direction
+    case 3:
+      m.magnetic_field.z = 1e10;
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -421,13 +569,28 @@ nav_msgs::Odometry hostileOdometry(int i) {
   m.pose.covariance[0] = m.pose.covariance[7] = m.pose.covariance[14] = 0.01;
   m.twist.twist.linear.x = 0.3;
   switch (i % 8) {
-    case 0: m.pose.pose.position.x = kNaN; break;
-    case 1: m.pose.pose.orientation = geometry_msgs::Quaternion(); m.pose.pose.orientation.w = 0.0; break;
-    case 2: m.pose.pose.orientation.x = 1.0; break;  // norm sqrt(2)
-    case 3: m.pose.covariance[7] = kNaN; break;     // good pose, NaN covariance
-    case 4: m.twist.twist.angular.z = kNaN; break;  // good pose, NaN twist
-    case 5: m.twist.twist.linear.y = kInf; m.twist.covariance[0] = kInf; break;
-    default: break;
+    case 0:
+      m.pose.pose.position.x = kNaN;
+      break;
+    case 1:
+      m.pose.pose.orientation = geometry_msgs::Quaternion();
+      m.pose.pose.orientation.w = 0.0;
+      break;
+    case 2:
+      m.pose.pose.orientation.x = 1.0;
+      break;  // norm sqrt(2)
+    case 3:
+      m.pose.covariance[7] = kNaN;
+      break;  // good pose, NaN covariance
+    case 4:
+      m.twist.twist.angular.z = kNaN;
+      break;  // good pose, NaN twist
+    case 5:
+      m.twist.twist.linear.y = kInf;
+      m.twist.covariance[0] = kInf;
+      break;
+    default:
+      break;
   }
   return m;
 }
@@ -437,8 +600,8 @@ bool nodeAlive(const std::string& name, std::string* why) {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
   args[1] = name;
-  if (!ros::master::execute("lookupNode", args, result, payload, false) || result.getType() != XmlRpc::XmlRpcValue::TypeArray ||
-      static_cast<int>(result[0]) != 1) {
+  if (!ros::master::execute("lookupNode", args, result, payload, false) ||
+      result.getType() != XmlRpc::XmlRpcValue::TypeArray || static_cast<int>(result[0]) != 1) {
     *why = "the master does not know it";
     return false;
   }
@@ -521,8 +684,8 @@ TEST(NodeRobustness, MalformedInputsNeitherCrashNorProduceNaN) {
     pub_image = nh.advertise<sensor_msgs::Image>("/fuzz/cam0/image_raw", 200);
     pub_filtered = nh.advertise<vims::FilteredSonarRange>("/est/sonar/filtered", q);
   }
-  std::vector<ros::Publisher*> inputs = {&pub_range, &pub_imu, &pub_mag, &pub_keyframe, &pub_signature,
-                                         &pub_geomagnetic, &pub_odometry};
+  std::vector<ros::Publisher*> inputs = {&pub_range,     &pub_imu,         &pub_mag,     &pub_keyframe,
+                                         &pub_signature, &pub_geomagnetic, &pub_odometry};
   if (with_estimator) {
     inputs.push_back(&pub_image);
     inputs.push_back(&pub_filtered);

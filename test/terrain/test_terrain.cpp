@@ -42,7 +42,7 @@ std::map<std::string, std::string> summary(const std::string& text, const std::s
 
 struct RunFigures {
   CommandResult offline;
-  double vio_pct = NAN;      ///< VIO translation ATE (SE3) in % of the distance
+  double vio_pct = NAN;       ///< VIO translation ATE (SE3) in % of the distance
   double vio_tilt_deg = NAN;  ///< VIO tilt error rms after a yaw-only alignment
   double vio_rot_deg = NAN;
   double global_pct = NAN;
@@ -63,8 +63,8 @@ RunFigures runOn(const std::string& name, const std::string& label, const std::s
                          " --config " + config.string() + (with_pose_graph ? "" : " --vio-only"));
   std::ofstream(out / "offline.log") << f.offline.output;
   EXPECT_EQ(f.offline.exit_code, 0) << f.offline.output;
-  const CommandResult eval = runCommand(tool("vims_eval") + " run --sequence " +
-                                        sequence.string() + " --out " + out.string());
+  const CommandResult eval =
+      runCommand(tool("vims_eval") + " run --sequence " + sequence.string() + " --out " + out.string());
   const auto vio = summary(eval.output, "VIMS_EVAL label=vio");
   if (vio.count("ate_se3_pct")) {
     f.vio_pct = std::stod(vio.at("ate_se3_pct"));

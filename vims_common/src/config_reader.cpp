@@ -36,9 +36,7 @@ bool ConfigReader::has(const std::string& key) const {
   return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
 }
 
-std::string ConfigReader::keyPath(const std::string& key) const {
-  return path_.empty() ? key : path_ + "." + key;
-}
+std::string ConfigReader::keyPath(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
 ConfigError ConfigReader::error(const std::string& key, const std::string& message) const {
   return ConfigError(source_ + ": " + keyPath(key) + ": " + message);
@@ -122,8 +120,8 @@ void requireNonNegative(const ConfigReader& reader, const std::string& key, doub
 
 void requireInRange(const ConfigReader& reader, const std::string& key, double value, double lo, double hi) {
   if (!(value >= lo && value <= hi)) {
-    throw reader.error(key, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
-                                std::to_string(value));
+    throw reader.error(
+        key, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(value));
   }
 }
 

@@ -45,7 +45,8 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   const ConfigReader cam = root.child("camera");
   collectUnknown(cam, {"model", "width", "height", "intrinsics", "distortion", "T_b_c", "rate_hz"}, unknown_keys);
   cfg.camera.model = cam.get<std::string>("model");
-  if (cfg.camera.model != "pinhole") throw cam.error("model", "only 'pinhole' (with radtan distortion) is supported, got '" + cfg.camera.model + "'");
+  if (cfg.camera.model != "pinhole")
+    throw cam.error("model", "only 'pinhole' (with radtan distortion) is supported, got '" + cfg.camera.model + "'");
   cfg.camera.width = cam.get<int>("width");
   cfg.camera.height = cam.get<int>("height");
   if (cfg.camera.width <= 0) throw cam.error("width", "must be a positive number of pixels");
@@ -63,7 +64,9 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   requirePositive(cam, "rate_hz", cfg.camera.rate_hz);
 
   const ConfigReader imu = root.child("imu");
-  collectUnknown(imu, {"rate_hz", "gyro_noise_density", "gyro_random_walk", "accel_noise_density", "accel_random_walk", "gravity"}, unknown_keys);
+  collectUnknown(
+      imu, {"rate_hz", "gyro_noise_density", "gyro_random_walk", "accel_noise_density", "accel_random_walk", "gravity"},
+      unknown_keys);
   cfg.imu.rate_hz = imu.get<double>("rate_hz");
   requirePositive(imu, "rate_hz", cfg.imu.rate_hz);
   cfg.imu.gyro_noise_density = imu.get<double>("gyro_noise_density");

@@ -39,7 +39,8 @@ SequencePaths SequencePaths::resolve(const std::string& dir) {
     }
   }
   SequencePaths p = forWriting(dir, name);
-  if (!fs::exists(p.yaml)) throw std::runtime_error("sequence '" + dir + "' is missing its configuration '" + p.yaml + "'");
+  if (!fs::exists(p.yaml))
+    throw std::runtime_error("sequence '" + dir + "' is missing its configuration '" + p.yaml + "'");
   if (!fs::exists(p.gt)) p.gt.clear();
   if (!fs::exists(p.truth)) p.truth.clear();
   return p;

@@ -1,5 +1,3 @@
-#include "vims_common/heap.h"
-
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -7,6 +5,8 @@
 #include <fstream>
 #include <memory>
 #include <vector>
+
+#include "vims_common/heap.h"
 
 namespace {
 

@@ -60,9 +60,9 @@ TEST(LatencyHistogram, OneSampleIsExactAndOutOfRangeValuesAreKept) {
   EXPECT_EQ(one.percentile(0.99), 12.345);
 
   LatencyHistogram extremes;
-  extremes.add(0.0);                    // below the first bin
-  extremes.add(5e9);                    // beyond the last one
-  extremes.add(std::nan(""));           // not counted
+  extremes.add(0.0);           // below the first bin
+  extremes.add(5e9);           // beyond the last one
+  extremes.add(std::nan(""));  // not counted
   EXPECT_EQ(extremes.count(), 2u);
   EXPECT_EQ(extremes.percentile(0.5), 0.0);
   EXPECT_EQ(extremes.percentile(1.0), 5e9);

@@ -95,9 +95,9 @@ TEST(SequenceConfig, BadValuesNameTheirKey) {
             std::string::npos);
   EXPECT_NE(errorOf(replace(base, "max_range: 50.0", "max_range: 0.05")).find("sonar.max_range"), std::string::npos);
   EXPECT_NE(errorOf(replace(base, "model: pinhole", "model: fisheye")).find("camera.model"), std::string::npos);
-  EXPECT_NE(errorOf(replace(base, "gyro_noise_density: 0.00012", "gyro_noise_density: abc"))
-                .find("imu.gyro_noise_density"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(replace(base, "gyro_noise_density: 0.00012", "gyro_noise_density: abc")).find("imu.gyro_noise_density"),
+      std::string::npos);
 }
 
 TEST(SequenceConfig, MissingSectionIsNamed) {
@@ -131,8 +131,8 @@ TEST(SequenceConfig, VersionOneSequenceHasNoPressureAndSavesWithoutIt) {
 
 TEST(SequenceConfig, PressureSectionParsesConvertsAndRoundTrips) {
   std::vector<std::string> unknown;
-  const std::string yaml = replace(kContractExample, "mag: /mag/raw}", "mag: /mag/raw, pressure: /depth/p}") +
-                           kPressureSection;
+  const std::string yaml =
+      replace(kContractExample, "mag: /mag/raw}", "mag: /mag/raw, pressure: /depth/p}") + kPressureSection;
   const auto cfg = SequenceConfig::fromReader(ConfigReader::fromString(yaml), &unknown);
   EXPECT_TRUE(unknown.empty());
   ASSERT_TRUE(cfg.pressure.has_value());
@@ -151,11 +151,13 @@ TEST(SequenceConfig, PressureSectionParsesConvertsAndRoundTrips) {
 TEST(SequenceConfig, BadPressureValuesNameTheirKey) {
   const std::string yaml = std::string(kContractExample) + kPressureSection;
   // An atmospheric pressure in hPa or bar is a unit error, not a weather change.
-  EXPECT_NE(errorOf(replace(yaml, "atmospheric_pa: 101325.0", "atmospheric_pa: 1013.25")).find("pressure.atmospheric_pa"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(replace(yaml, "atmospheric_pa: 101325.0", "atmospheric_pa: 1013.25")).find("pressure.atmospheric_pa"),
+      std::string::npos);
   EXPECT_NE(errorOf(replace(yaml, "water_density: 1025.0", "water_density: 1.025")).find("pressure.water_density"),
             std::string::npos);
-  EXPECT_NE(errorOf(replace(yaml, "  rate_hz: 10\n  noise_std_pa", "  rate_hz: 0\n  noise_std_pa")).find("pressure.rate_hz"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(replace(yaml, "  rate_hz: 10\n  noise_std_pa", "  rate_hz: 0\n  noise_std_pa")).find("pressure.rate_hz"),
+      std::string::npos);
   EXPECT_NE(errorOf(replace(yaml, "T_b_p: [1,0,0,-0.4,", "T_b_p: [1,0,0,")).find("pressure.T_b_p"), std::string::npos);
 }

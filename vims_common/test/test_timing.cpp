@@ -27,8 +27,8 @@ TEST(Timing, ClocksCountMillisecondsAndThreadCpuSeconds) {
   for (int i = 0; i < 2000000; ++i) sink = sink + std::sqrt(static_cast<double>(i));
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   const double cpu = threadCpuSeconds() - cpu_start;
-  EXPECT_GE(millisecondsSince(start), 20.0);  // the sleep alone is 20 ms of wall time
-  EXPECT_GT(cpu, 0.0);                        // the loop used CPU ...
+  EXPECT_GE(millisecondsSince(start), 20.0);        // the sleep alone is 20 ms of wall time
+  EXPECT_GT(cpu, 0.0);                              // the loop used CPU ...
   EXPECT_LT(cpu, 1e-3 * millisecondsSince(start));  // ... but none while asleep
 }
 

@@ -5,16 +5,44 @@
 namespace vims {
 
 EstimatorOptions EstimatorOptions::fromReader(const ConfigReader& r) {
-  r.rejectUnknownKeys({"window_size", "keyframe_parallax_px", "keyframe_min_tracked", "max_solver_iterations",
-                       "max_solver_time_s", "reprojection_loss_scale", "sonar_loss_scale", "min_feature_depth_m",
-                       "max_feature_depth_m", "triangulation_min_angle_deg", "outlier_reprojection_px", "use_sonar",
-                       "sonar_max_interpolation_gap_s", "sonar_wait_s", "sonar_min_range_std_m", "estimate_td", "td_initial_s",
-                       "max_abs_td_s", "td_min_image_speed_px_s", "init_gravity_window_s", "init_static_gyro_std", "init_static_accel_std",
-                       "init_velocity_sigma", "init_accel_bias_sigma", "init_gyro_bias_sigma", "imu_max_gap_s",
-                       "max_frame_wait_s", "failure_max_accel_bias", "failure_max_gyro_bias",
-                       "failure_max_position_jump_m", "failure_max_velocity", "failure_min_tracked",
-                       "failure_lost_tracking_s", "factors", "solve_window_every_frame", "visual_inertial_init",
-                       "seabed", "pressure"});
+  r.rejectUnknownKeys({"window_size",
+                       "keyframe_parallax_px",
+                       "keyframe_min_tracked",
+                       "max_solver_iterations",
+                       "max_solver_time_s",
+                       "reprojection_loss_scale",
+                       "sonar_loss_scale",
+                       "min_feature_depth_m",
+                       "max_feature_depth_m",
+                       "triangulation_min_angle_deg",
+                       "outlier_reprojection_px",
+                       "use_sonar",
+                       "sonar_max_interpolation_gap_s",
+                       "sonar_wait_s",
+                       "sonar_min_range_std_m",
+                       "estimate_td",
+                       "td_initial_s",
+                       "max_abs_td_s",
+                       "td_min_image_speed_px_s",
+                       "init_gravity_window_s",
+                       "init_static_gyro_std",
+                       "init_static_accel_std",
+                       "init_velocity_sigma",
+                       "init_accel_bias_sigma",
+                       "init_gyro_bias_sigma",
+                       "imu_max_gap_s",
+                       "max_frame_wait_s",
+                       "failure_max_accel_bias",
+                       "failure_max_gyro_bias",
+                       "failure_max_position_jump_m",
+                       "failure_max_velocity",
+                       "failure_min_tracked",
+                       "failure_lost_tracking_s",
+                       "factors",
+                       "solve_window_every_frame",
+                       "visual_inertial_init",
+                       "seabed",
+                       "pressure"});
   EstimatorOptions o;
   o.window_size = r.get<int>("window_size", o.window_size);
   requireInRange(r, "window_size", o.window_size, 2, 50);
@@ -95,19 +123,19 @@ std::string EstimatorOptions::toYaml() const {
      << "\nkeyframe_min_tracked: " << keyframe_min_tracked << "\nmax_solver_iterations: " << max_solver_iterations
      << "\nmax_solver_time_s: " << max_solver_time_s
      << "\nsolve_window_every_frame: " << (solve_window_every_frame ? "true" : "false")
-     << "\nreprojection_loss_scale: " << reprojection_loss_scale
-     << "\nsonar_loss_scale: " << sonar_loss_scale << "\nmin_feature_depth_m: " << min_feature_depth_m
-     << "\nmax_feature_depth_m: " << max_feature_depth_m
+     << "\nreprojection_loss_scale: " << reprojection_loss_scale << "\nsonar_loss_scale: " << sonar_loss_scale
+     << "\nmin_feature_depth_m: " << min_feature_depth_m << "\nmax_feature_depth_m: " << max_feature_depth_m
      << "\ntriangulation_min_angle_deg: " << triangulation_min_angle_deg
      << "\noutlier_reprojection_px: " << outlier_reprojection_px << "\nuse_sonar: " << (use_sonar ? "true" : "false")
      << "\nsonar_max_interpolation_gap_s: " << sonar_max_interpolation_gap_s << "\nsonar_wait_s: " << sonar_wait_s
      << "\nsonar_min_range_std_m: " << sonar_min_range_std_m << "\nestimate_td: " << (estimate_td ? "true" : "false")
-     << "\ntd_initial_s: " << td_initial_s << "\nmax_abs_td_s: " << max_abs_td_s << "\ntd_min_image_speed_px_s: " << td_min_image_speed_px_s
-     << "\ninit_gravity_window_s: " << init_gravity_window_s << "\ninit_static_gyro_std: " << init_static_gyro_std
-     << "\ninit_static_accel_std: " << init_static_accel_std << "\ninit_velocity_sigma: " << init_velocity_sigma
-     << "\ninit_accel_bias_sigma: " << init_accel_bias_sigma << "\ninit_gyro_bias_sigma: " << init_gyro_bias_sigma
-     << "\nimu_max_gap_s: " << imu_max_gap_s << "\nmax_frame_wait_s: " << max_frame_wait_s
-     << "\nfailure_max_accel_bias: " << failure_max_accel_bias << "\nfailure_max_gyro_bias: " << failure_max_gyro_bias
+     << "\ntd_initial_s: " << td_initial_s << "\nmax_abs_td_s: " << max_abs_td_s
+     << "\ntd_min_image_speed_px_s: " << td_min_image_speed_px_s << "\ninit_gravity_window_s: " << init_gravity_window_s
+     << "\ninit_static_gyro_std: " << init_static_gyro_std << "\ninit_static_accel_std: " << init_static_accel_std
+     << "\ninit_velocity_sigma: " << init_velocity_sigma << "\ninit_accel_bias_sigma: " << init_accel_bias_sigma
+     << "\ninit_gyro_bias_sigma: " << init_gyro_bias_sigma << "\nimu_max_gap_s: " << imu_max_gap_s
+     << "\nmax_frame_wait_s: " << max_frame_wait_s << "\nfailure_max_accel_bias: " << failure_max_accel_bias
+     << "\nfailure_max_gyro_bias: " << failure_max_gyro_bias
      << "\nfailure_max_position_jump_m: " << failure_max_position_jump_m
      << "\nfailure_max_velocity: " << failure_max_velocity << "\nfailure_min_tracked: " << failure_min_tracked
      << "\nfailure_lost_tracking_s: " << failure_lost_tracking_s << "\nfactors:\n";

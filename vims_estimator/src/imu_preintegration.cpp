@@ -10,9 +10,7 @@ namespace vims {
 
 namespace {
 
-bool isFinite(const ImuSample& s) {
-  return std::isfinite(s.t) && s.gyro.allFinite() && s.accel.allFinite();
-}
+bool isFinite(const ImuSample& s) { return std::isfinite(s.t) && s.gyro.allFinite() && s.accel.allFinite(); }
 
 ImuSample lerp(const ImuSample& a, const ImuSample& b, double t) {
   const double s = (t - a.t) / (b.t - a.t);
@@ -25,8 +23,8 @@ ImuSample lerp(const ImuSample& a, const ImuSample& b, double t) {
 
 void requirePositiveFinite(double value, const char* name) {
   if (!(std::isfinite(value) && value > 0.0)) {
-    throw std::invalid_argument(std::string("ImuNoiseParams: ") + name + " must be > 0 (got " +
-                                std::to_string(value) + ")");
+    throw std::invalid_argument(std::string("ImuNoiseParams: ") + name + " must be > 0 (got " + std::to_string(value) +
+                                ")");
   }
 }
 
@@ -111,9 +109,8 @@ ImuPreintegration::ImuPreintegration(const ImuSample& first, const Eigen::Vector
   reset();
 }
 
-ImuPreintegration ImuPreintegration::fromSamples(const std::vector<ImuSample>& samples,
-                                                 const Eigen::Vector3d& ba_lin, const Eigen::Vector3d& bg_lin,
-                                                 const ImuNoiseParams& noise) {
+ImuPreintegration ImuPreintegration::fromSamples(const std::vector<ImuSample>& samples, const Eigen::Vector3d& ba_lin,
+                                                 const Eigen::Vector3d& bg_lin, const ImuNoiseParams& noise) {
   if (samples.size() < 2) throw std::invalid_argument("ImuPreintegration::fromSamples: need >= 2 samples");
   ImuPreintegration pre(samples.front(), ba_lin, bg_lin, noise);
   for (size_t i = 1; i < samples.size(); ++i) {

@@ -50,8 +50,10 @@ void applyLoss(const ceres::LossFunction& loss, Eigen::VectorXd* r, Eigen::Matri
 MarginalizationOptions MarginalizationOptions::fromReader(const ConfigReader& reader) {
   reader.rejectUnknownKeys({"eigenvalue_relative_threshold", "eigenvalue_absolute_threshold"});
   MarginalizationOptions o;
-  o.eigenvalue_relative_threshold = reader.get<double>("eigenvalue_relative_threshold", o.eigenvalue_relative_threshold);
-  o.eigenvalue_absolute_threshold = reader.get<double>("eigenvalue_absolute_threshold", o.eigenvalue_absolute_threshold);
+  o.eigenvalue_relative_threshold =
+      reader.get<double>("eigenvalue_relative_threshold", o.eigenvalue_relative_threshold);
+  o.eigenvalue_absolute_threshold =
+      reader.get<double>("eigenvalue_absolute_threshold", o.eigenvalue_absolute_threshold);
   requireInRange(reader, "eigenvalue_relative_threshold", o.eigenvalue_relative_threshold, 1e-300, 1.0);
   requirePositive(reader, "eigenvalue_absolute_threshold", o.eigenvalue_absolute_threshold);
   return o;

@@ -19,7 +19,8 @@ PressureDepthFilter::Result PressureDepthFilter::add(const PressureSample& sampl
     return result;
   }
   if (!window_.empty() && sample.t <= window_.back().first) {
-    if (sample.t < window_.back().first) window_.clear();  // clock went backwards
+    if (sample.t < window_.back().first)
+      window_.clear();  // clock went backwards
     else {
       result.rejected_because = "repeated stamp";
       return result;

@@ -47,9 +47,8 @@ double misfitFromPairs(const std::vector<double>& residuals, const std::vector<d
   return 0.5 * (lo + hi);
 }
 
-std::optional<SeabedReliefEstimate> SeabedRelief::estimate(const std::vector<SeabedSample>& window,
-                                                          double sonar_sigma, double feature_distance_m,
-                                                          int min_pairs) const {
+std::optional<SeabedReliefEstimate> SeabedRelief::estimate(const std::vector<SeabedSample>& window, double sonar_sigma,
+                                                           double feature_distance_m, int min_pairs) const {
   if (!(feature_distance_m > 0.0)) return std::nullopt;
   std::vector<const SeabedSample*> samples;
   samples.reserve(history_.size() + window.size());

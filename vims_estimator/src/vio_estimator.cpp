@@ -57,11 +57,16 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
 
 const char* vioStatusName(VioStatus status) {
   switch (status) {
-    case VioStatus::kWaitingForImu: return "waiting_for_imu";
-    case VioStatus::kInitialized: return "initialized";
-    case VioStatus::kTracking: return "tracking";
-    case VioStatus::kNoVisualUpdate: return "no_visual_update";
-    case VioStatus::kReset: return "reset";
+    case VioStatus::kWaitingForImu:
+      return "waiting_for_imu";
+    case VioStatus::kInitialized:
+      return "initialized";
+    case VioStatus::kTracking:
+      return "tracking";
+    case VioStatus::kNoVisualUpdate:
+      return "no_visual_update";
+    case VioStatus::kReset:
+      return "reset";
   }
   return "unknown";
 }
@@ -79,12 +84,13 @@ VioEstimator::VioEstimator(const SequenceConfig& sequence, const EstimatorOption
   g_l_ = Eigen::Vector3d(0.0, 0.0, -sequence_.imu.gravity);
   focal_ = 0.5 * (sequence_.camera.fx + sequence_.camera.fy);
   if (!(focal_ > 0.0)) throw std::invalid_argument("VioEstimator: camera focal length must be > 0");
-  sonar_sigma_ = options_.factors.sonar_depth.sigma(
-      std::max(sequence_.sonar.range_noise_std, options_.sonar_min_range_std_m));
+  sonar_sigma_ =
+      options_.factors.sonar_depth.sigma(std::max(sequence_.sonar.range_noise_std, options_.sonar_min_range_std_m));
   isometryToPoseBlock(sequence_.camera.T_b_c, T_b_c_block_);
   td_[0] = options_.td_initial_s;
   if (sequence_.pressure && options_.pressure.enabled) {
-    pressure_filter_ = std::make_unique<PressureDepthFilter>(*sequence_.pressure, sequence_.imu.gravity, options_.pressure);
+    pressure_filter_ =
+        std::make_unique<PressureDepthFilter>(*sequence_.pressure, sequence_.imu.gravity, options_.pressure);
     pressure_sigma_ = std::max(sequence_.pressure->depthStd(sequence_.imu.gravity), options_.pressure.min_depth_std_m);
   }
 }
@@ -143,8 +149,10 @@ void VioEstimator::feedImu(const ImuSample& sample) {
 void VioEstimator::feedSonar(const SonarFilterResult& result) {
   if (!result.accepted || !result.has_estimate || !std::isfinite(result.filtered) || !(result.filtered > 0.0)) return;
   if (!sonar_.empty() && result.t <= sonar_.back().first) {
-    if (result.t < sonar_.back().first) sonar_.clear();  // clock went backwards: old ranges are void
-    else return;
+    if (result.t < sonar_.back().first)
+      sonar_.clear();  // clock went backwards: old ranges are void
+    else
+      return;
   }
   sonar_.emplace_back(result.t, result.filtered);
   processPendingFrames();  // a frame may have been waiting for this range
@@ -160,9 +168,11 @@ void VioEstimator::feedPressure(const PressureSample& sample) {
   }
   if (r.depth < -1.0 && !warned_above_surface_) {
     warned_above_surface_ = true;
-    logger_->warn(kComponent, VIMS_STR("pressure depth " << r.depth << " m is above the surface: the sequence's "
-                                       "pressure.atmospheric_pa is probably wrong; depths are used relative to an "
-                                       "estimated surface, so the factor still holds"));
+    logger_->warn(kComponent, VIMS_STR("pressure depth "
+                                       << r.depth
+                                       << " m is above the surface: the sequence's "
+                                          "pressure.atmospheric_pa is probably wrong; depths are used relative to an "
+                                          "estimated surface, so the factor still holds"));
   }
   if (!pressure_.empty() && r.t < pressure_.back().first) pressure_.clear();  // clock went backwards
   pressure_.emplace_back(r.t, r.depth);
@@ -324,8 +334,8 @@ bool VioEstimator::initializeFirstFrame(const TrackedFrame& tracked, const cv::M
     acc_var += std::pow(s->accel.norm() - acc_mean.norm(), 2);
     gyr_var += (s->gyro - gyr_mean).squaredNorm();
   }
-  const bool is_static = std::sqrt(acc_var / n) < options_.init_static_accel_std &&
-                         std::sqrt(gyr_var / n) < options_.init_static_gyro_std;
+  const bool is_static =
+      std::sqrt(acc_var / n) < options_.init_static_accel_std && std::sqrt(gyr_var / n) < options_.init_static_gyro_std;
   if (acc_mean.norm() < 0.5 * sequence_.imu.gravity) return false;  // free fall or garbage: no gravity
 
   auto frame = makeFrame(tracked, image, t_state);
@@ -344,10 +354,11 @@ bool VioEstimator::initializeFirstFrame(const TrackedFrame& tracked, const cv::M
   session_started_ = true;
   last_good_tracking_t_ = tracked.t;
   initializeFeatureDepths();
-  logger_->info(kComponent, VIMS_STR("session " << session_ << " initialised at t=" << std::fixed << std::setprecision(3) << tracked.t
-                                                << (is_static ? " (static start)" : " (moving start: v0 = 0 assumed)")
-                                                << ", " << tracked.features.size() << " features, sonar "
-                                                << (frames_.back()->sonar_range ? "available" : "not available")));
+  logger_->info(kComponent,
+                VIMS_STR("session " << session_ << " initialised at t=" << std::fixed << std::setprecision(3)
+                                    << tracked.t << (is_static ? " (static start)" : " (moving start: v0 = 0 assumed)")
+                                    << ", " << tracked.features.size() << " features, sonar "
+                                    << (frames_.back()->sonar_range ? "available" : "not available")));
   return true;
 }
 
@@ -405,10 +416,10 @@ bool VioEstimator::initializeVisualInertial(const TrackedFrame& tracked, const c
   const VisualInertialInitializer initializer(sequence_.camera.T_b_c, sequence_.imu.gravity, focal_, init);
   const VisualInertialInitResult r = initializer.initialize(window);
   if (!r.ok()) {
-    logger_->warnThrottled(kComponent, "vi_init", tracked.t, 5.0,
-                           VIMS_STR("visual-inertial initialisation failed (" << visualInertialInitStatusName(r.status)
-                                                                              << "): " << r.message
-                                                                              << "; retrying with the next frames"));
+    logger_->warnThrottled(
+        kComponent, "vi_init", tracked.t, 5.0,
+        VIMS_STR("visual-inertial initialisation failed (" << visualInertialInitStatusName(r.status)
+                                                           << "): " << r.message << "; retrying with the next frames"));
     vi_init_frames_.pop_front();
     return false;
   }
@@ -445,9 +456,10 @@ bool VioEstimator::initializeVisualInertial(const TrackedFrame& tracked, const c
   session_started_ = true;
   last_good_tracking_t_ = tracked.t;
   initializeFeatureDepths();
-  logger_->info(kComponent, VIMS_STR("session " << session_ << " initialised at t=" << std::fixed << std::setprecision(3)
-                                                << tracked.t << " by visual-inertial alignment over "
-                                                << frames_.size() << " frames: " << r.message));
+  logger_->info(
+      kComponent,
+      VIMS_STR("session " << session_ << " initialised at t=" << std::fixed << std::setprecision(3) << tracked.t
+                          << " by visual-inertial alignment over " << frames_.size() << " frames: " << r.message));
   return true;
 }
 
@@ -481,7 +493,8 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
       result.T_odom_b_at_stamp.linear() =
           (Eigen::Quaterniond(result.T_odom_b.linear()) * so3::exp(w * dt)).normalized().toRotationMatrix();
       result.seabed_slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
-      if (f.sonar_range) result.sonar_hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
+      if (f.sonar_range)
+        result.sonar_hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
       if (seabed_fix_) {
         const SeabedPlane plane{seabed_fix_->height, seabed_fix_->xy, seabed_fix_->slope};
         result.seabed_height = plane.heightAt(result.T_odom_b.translation().head<2>());
@@ -505,7 +518,8 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
 
   Frame* prev = frames_.back().get();
   if (t_state <= prev->t_state + 1e-4) {
-    logger_->warnThrottled(kComponent, "frame_order", tracked.t, 5.0, "frame state time not after the previous: skipped");
+    logger_->warnThrottled(kComponent, "frame_order", tracked.t, 5.0,
+                           "frame state time not after the previous: skipped");
     return;
   }
   const auto samples = imuSamplesForInterval(imu_, prev->t_state, t_state);
@@ -564,7 +578,8 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   if (n >= 3) {
     int common = 0;
     const double parallax = parallaxPx(*frames_[n - 3], *frames_[n - 2], &common);
-    keyframe = tracked_count < options_.keyframe_min_tracked || common == 0 || parallax >= options_.keyframe_parallax_px;
+    keyframe =
+        tracked_count < options_.keyframe_min_tracked || common == 0 || parallax >= options_.keyframe_parallax_px;
   }
 
   initializeFeatureDepths();
@@ -579,8 +594,9 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   if (options_.use_sonar) updateSeabedFix();
   if (options_.estimate_td && tracked.t - last_td_log_t_ >= 30.0) {
     last_td_log_t_ = tracked.t;
-    logger_->info(kComponent, VIMS_STR("camera-IMU time offset td = " << std::fixed << std::setprecision(4) << td_[0]
-                                                                       << " s at t=" << std::setprecision(1) << tracked.t));
+    logger_->info(kComponent,
+                  VIMS_STR("camera-IMU time offset td = " << std::fixed << std::setprecision(4) << td_[0]
+                                                          << " s at t=" << std::setprecision(1) << tracked.t));
   }
   removeOutliers();
 
@@ -616,7 +632,6 @@ double VioEstimator::parallaxPx(const Frame& a, const Frame& b, int* common) con
   *common = count;
   return count > 0 ? focal_ * sum / count : 0.0;
 }
-
 
 bool VioEstimator::detectFailure(const Eigen::Vector3d& p_pred, std::string* why) const {
   for (const auto& frame : frames_) {
@@ -655,7 +670,6 @@ bool VioEstimator::detectFailure(const Eigen::Vector3d& p_pred, std::string* why
   return false;
 }
 
-
 void VioEstimator::emitKeyframe(Frame& frame) {
   if (frame.keyframe_emitted) return;
   frame.keyframe_emitted = true;
@@ -680,9 +694,10 @@ void VioEstimator::emitKeyframe(Frame& frame) {
 
 void VioEstimator::pruneImu() {
   if (imu_.empty()) return;
-  double keep_from = frames_.empty() ? imu_.back().t - 2.0 * options_.init_gravity_window_s
-                                     : frames_.front()->t_state - 1.0;
-  if (frames_.empty() && !vi_init_frames_.empty()) keep_from = std::min(keep_from, vi_init_frames_.front().t_state - 1.0);
+  double keep_from =
+      frames_.empty() ? imu_.back().t - 2.0 * options_.init_gravity_window_s : frames_.front()->t_state - 1.0;
+  if (frames_.empty() && !vi_init_frames_.empty())
+    keep_from = std::min(keep_from, vi_init_frames_.front().t_state - 1.0);
   auto it = std::lower_bound(imu_.begin(), imu_.end(), keep_from,
                              [](const ImuSample& s, double value) { return s.t < value; });
   if (it != imu_.begin() && it - imu_.begin() > 200) imu_.erase(imu_.begin(), it);

@@ -1,6 +1,4 @@
 // Feature depths of the sliding-window VIO: seabed or triangulated starts, image velocities, outliers.
-#include "vims_estimator/vio_estimator.h"
-
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -18,6 +16,7 @@
 #include "vims_estimator/factors/sonar_depth_factor.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
+#include "vims_estimator/vio_estimator.h"
 #include "vio_window.h"
 
 namespace vims {
@@ -71,7 +70,8 @@ void VioEstimator::predictImageVelocities() {
     const Eigen::Isometry3d T_c_l = (T_l_b * T_b_c).inverse();
     const Eigen::Vector3d w_b = frame->gyro_at_state - sbGyroBias(frame->sb);
     const Eigen::Vector3d w_c = R_cb * w_b;
-    const Eigen::Vector3d v_c = R_cb * (T_l_b.linear().transpose() * sbVelocity(frame->sb) + w_b.cross(T_b_c.translation()));
+    const Eigen::Vector3d v_c =
+        R_cb * (T_l_b.linear().transpose() * sbVelocity(frame->sb) + w_b.cross(T_b_c.translation()));
     for (auto& [id, obs] : frame->obs) {
       obs.fo.velocity.setZero();
       auto it = points.find(id);
@@ -138,7 +138,8 @@ bool VioEstimator::triangulate(const Feature& feature, double* lambda) const {
     const double b1 = d.dot(ra), b2 = d.dot(rb);
     const double l = (-a22 * b1 - a12 * b2) / det;
     const double m = (a11 * b2 + a12 * b1) / det;
-    if (l < options_.min_feature_depth_m || m < options_.min_feature_depth_m || l > options_.max_feature_depth_m) continue;
+    if (l < options_.min_feature_depth_m || m < options_.min_feature_depth_m || l > options_.max_feature_depth_m)
+      continue;
     best_angle = angle;
     best_lambda = l;
   }
@@ -160,7 +161,6 @@ void VioEstimator::initializeFeatureDepths() {
     }
   }
 }
-
 
 void VioEstimator::removeOutliers() {
   const Eigen::Isometry3d T_bc = extrinsicCamera();
@@ -191,6 +191,5 @@ void VioEstimator::removeOutliers() {
     features_.erase(id);
   }
 }
-
 
 }  // namespace vims

@@ -23,7 +23,6 @@
 namespace vims {
 namespace vio_window {
 
-
 /// The gauge prior on a session's first keyframe pins the arbitrary origin and yaw of the VIO
 /// frame (measurements cannot inform them). 1 mm / 1 mrad is far below anything the window can
 /// resolve, so it fixes the gauge without competing with any measurement.
@@ -120,7 +119,8 @@ std::optional<double> interpolateSeries(const std::deque<std::pair<double, doubl
 
 /// Solver settings of the window solves: a few dogleg iterations from the previous solution,
 /// single-threaded (the offline runner's determinism), with the optional wall-clock cap.
-inline ceres::Solver::Options windowSolverOptions(const EstimatorOptions& options, ceres::LinearSolverType linear_solver) {
+inline ceres::Solver::Options windowSolverOptions(const EstimatorOptions& options,
+                                                  ceres::LinearSolverType linear_solver) {
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = linear_solver;
   solver_options.trust_region_strategy_type = ceres::DOGLEG;
@@ -139,7 +139,7 @@ struct SeabedTies {
   double sonar_sigma = 0.05;
   const SonarDepthOptions* options = nullptr;
   const SeabedFix* carried = nullptr;  ///< the last measured seabed, null before the first range
-  bool sloped = false;  ///< local_plane: the sonar factor uses the anchor's seabed gradient block
+  bool sloped = false;                 ///< local_plane: the sonar factor uses the anchor's seabed gradient block
   /// Features tied to the carried plane in this solve (carriedFeatureCount). Its error (one
   /// ping, extrapolated over metres of a seabed that is only locally a plane) is common to all of
   /// them, so each factor's variance is scaled by this count: together they weigh as the one
@@ -190,7 +190,8 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
   if (!seabed.use_sonar || !feature.sonar_ok) return;
   const SonarDepthOptions& options = *seabed.options;
   if (a->sonar_range) {
-    const double distance = sonarHitDistance(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc, feature.lambda[0], td[0]);
+    const double distance =
+        sonarHitDistance(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc, feature.lambda[0], td[0]);
     const double sigma = SonarDepthOptions::sigmaAt(seabed.sonar_sigma, distance,
                                                     options.misfitPerM(seabed.relief_per_m, a->sonar_features));
     if (apply_gate) {

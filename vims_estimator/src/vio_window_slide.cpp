@@ -1,6 +1,4 @@
 // Sliding the window: marginalising the oldest keyframe or dropping the second newest frame.
-#include "vims_estimator/vio_estimator.h"
-
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -19,6 +17,7 @@
 #include "vims_estimator/factors/sonar_depth_factor.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
+#include "vims_estimator/vio_estimator.h"
 #include "vio_window.h"
 
 namespace vims {
@@ -41,7 +40,6 @@ bool VioEstimator::priorTouches(const MarginalizationPrior& prior, const Frame* 
   }
   return false;
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // Sliding the window
@@ -116,14 +114,15 @@ void VioEstimator::marginalizeOldest() {
       info.addResidualBlock(std::make_shared<SlopeRandomWalkFactor>(slopeStepSigma(*old, *next)), nullptr,
                             {old->slope, next->slope});
       if (old->has_first_state_prior)
-        info.addResidualBlock(std::make_shared<SlopePriorFactor>(Eigen::Vector2d::Zero(), options_.seabed.slope_prior_std),
-                              nullptr, {old->slope});
+        info.addResidualBlock(
+            std::make_shared<SlopePriorFactor>(Eigen::Vector2d::Zero(), options_.seabed.slope_prior_std), nullptr,
+            {old->slope});
     }
     if (pressure && old->depth) {
       auto pressure_loss = std::make_shared<ceres::HuberLoss>(options_.pressure.loss_scale);
-      info.addResidualBlock(std::make_shared<PressureDepthFactor>(*old->depth, sequence_.pressure->T_b_p.translation(),
-                                                                  pressure_sigma_),
-                            pressure_loss, {old->pose, surface_z_});
+      info.addResidualBlock(
+          std::make_shared<PressureDepthFactor>(*old->depth, sequence_.pressure->T_b_p.translation(), pressure_sigma_),
+          pressure_loss, {old->pose, surface_z_});
     }
     if (old->has_first_state_prior) {
       info.addResidualBlock(std::make_shared<PosePriorFactor>(
@@ -136,8 +135,8 @@ void VioEstimator::marginalizeOldest() {
           Eigen::Vector3d::Constant(1.0 / options_.init_gyro_bias_sigma);
       info.addResidualBlock(std::make_shared<SpeedBiasPriorFactor>(old->prior_sb, inv_sigma), nullptr, {old->sb});
     }
-    const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-        sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+    const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
+                                                                          options_.factors.reprojection.pixel_sigma);
     auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
     auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
     const SeabedTies seabed = seabedTies(sloped, false);
@@ -230,6 +229,5 @@ void VioEstimator::dropSecondNewest() {
     f->prior_sb = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(f->sb);
   }
 }
-
 
 }  // namespace vims

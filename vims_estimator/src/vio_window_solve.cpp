@@ -1,6 +1,4 @@
 // The window solves of the sliding-window VIO and the sonar ranges they use.
-#include "vims_estimator/vio_estimator.h"
-
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -19,6 +17,7 @@
 #include "vims_estimator/factors/sonar_depth_factor.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
+#include "vims_estimator/vio_estimator.h"
 #include "vio_window.h"
 
 namespace vims {
@@ -76,10 +75,10 @@ void VioEstimator::optimize(VioFrameResult* result) {
   for (const auto& prior : priors_) problem.AddResidualBlock(new MarginalizationFactor(prior), nullptr, prior->blocks);
   Frame* first = frames_.front().get();
   if (first->has_first_state_prior) {
-    problem.AddResidualBlock(new PosePriorFactor(first->prior_p, first->prior_q,
-                                                 PosePriorFactor::positionYawSqrtInformation(kGaugeSigmaPosition,
-                                                                                             kGaugeSigmaYaw)),
-                             nullptr, first->pose);
+    problem.AddResidualBlock(
+        new PosePriorFactor(first->prior_p, first->prior_q,
+                            PosePriorFactor::positionYawSqrtInformation(kGaugeSigmaPosition, kGaugeSigmaYaw)),
+        nullptr, first->pose);
     Eigen::Matrix<double, 9, 1> inv_sigma;
     inv_sigma << Eigen::Vector3d::Constant(1.0 / options_.init_velocity_sigma),
         Eigen::Vector3d::Constant(1.0 / options_.init_accel_bias_sigma),
@@ -92,8 +91,8 @@ void VioEstimator::optimize(VioFrameResult* result) {
   ceres::HuberLoss pressure_loss(options_.pressure.loss_scale);
   result->pressure_factors = addPressureFactors(&problem, &pressure_loss, false);
 
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
+                                                                        options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
   const SeabedTies seabed = seabedTies(sloped, true);
   std::vector<ResidualSpec> specs;
@@ -113,13 +112,15 @@ void VioEstimator::optimize(VioFrameResult* result) {
       problem.AddResidualBlock(s.cost, s.sonar ? static_cast<ceres::LossFunction*>(&cauchy) : &huber, s.blocks);
     }
   }
-  if (n_features == 0 && options_.estimate_td && td_observable) problem.SetParameterBlockConstant(td_);  // no visual factor
+  if (n_features == 0 && options_.estimate_td && td_observable)
+    problem.SetParameterBlockConstant(td_);  // no visual factor
   if (n_gated > 0) {
-    logger_->warnThrottled(kComponent, "seabed_gate", frames_.back()->t_stamp, 30.0,
-                           VIMS_STR(n_gated << " feature(s) off the seabed plane through their anchor's sonar hit (a rock "
-                                               "or a fish under the beam, a rock or a structure in view): their sonar "
-                                               "factors are dropped, vision holds them; further cases within 30 s are "
-                                               "counted, not logged"));
+    logger_->warnThrottled(
+        kComponent, "seabed_gate", frames_.back()->t_stamp, 30.0,
+        VIMS_STR(n_gated << " feature(s) off the seabed plane through their anchor's sonar hit (a rock "
+                            "or a fish under the beam, a rock or a structure in view): their sonar "
+                            "factors are dropped, vision holds them; further cases within 30 s are "
+                            "counted, not logged"));
   }
 
   ceres::Solver::Summary summary;
@@ -160,8 +161,8 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
   problem.AddResidualBlock(new ImuFactor(newest->preintegration, g_l_), nullptr, prev->pose, prev->sb, newest->pose,
                            newest->sb);
 
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(
-      sequence_.camera.fx, sequence_.camera.fy, options_.factors.reprojection.pixel_sigma);
+  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
+                                                                        options_.factors.reprojection.pixel_sigma);
   const Eigen::Isometry3d T_bc = extrinsicCamera();
   const Eigen::Isometry3d T_l_bk = newest->T_l_b();
   int n_features = 0;
@@ -189,7 +190,6 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
   result->features_in_window = n_features;
   result->sonar_factors = 0;
 }
-
 
 SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
   SeabedTies seabed;
@@ -251,9 +251,9 @@ void VioEstimator::updateSeabedRelief(const std::vector<double>& feature_distanc
   if (t - last_relief_log_t_ >= 60.0) {
     last_relief_log_t_ = t;
     logger_->info(kComponent, VIMS_STR("seabed relief " << std::fixed << std::setprecision(3) << relief_->misfit_per_m
-                                                         << " m/m from " << relief_->pairs << " pairs of sonar hits "
-                                                         << std::setprecision(2) << relief_->pair_distance_m
-                                                         << " m apart (the features' median distance from their hit)"));
+                                                        << " m/m from " << relief_->pairs << " pairs of sonar hits "
+                                                        << std::setprecision(2) << relief_->pair_distance_m
+                                                        << " m apart (the features' median distance from their hit)"));
   }
 }
 
@@ -282,10 +282,9 @@ void VioEstimator::fillMissingSonarRanges() {
     else
       fallback << "visual-inertial only until it returns";
     logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
-                           VIMS_STR("sonar gap: no filtered range within " << options_.sonar_max_interpolation_gap_s
-                                                                            << " s of the frame at t=" << std::fixed
-                                                                            << std::setprecision(3) << f.t_stamp << ": "
-                                                                            << fallback.str()));
+                           VIMS_STR("sonar gap: no filtered range within "
+                                    << options_.sonar_max_interpolation_gap_s << " s of the frame at t=" << std::fixed
+                                    << std::setprecision(3) << f.t_stamp << ": " << fallback.str()));
   }
 }
 
@@ -305,7 +304,6 @@ void VioEstimator::updateSeabedFix() {
     return;
   }
 }
-
 
 double VioEstimator::slopeStepSigma(const Frame& a, const Frame& b) const {
   const double distance = (posePosition(b.pose) - posePosition(a.pose)).head<2>().norm();

@@ -15,8 +15,9 @@ TEST(EstimatorOptions, DefaultsAndRoundTrip) {
 }
 
 TEST(EstimatorOptions, ReadsValues) {
-  const auto o = vims::EstimatorOptions::fromReader(vims::ConfigReader::fromString(
-      "{window_size: 8, use_sonar: false, estimate_td: true, td_initial_s: 0.01, factors: {reprojection: {pixel_sigma: 2.0}}}"));
+  const auto o = vims::EstimatorOptions::fromReader(
+      vims::ConfigReader::fromString("{window_size: 8, use_sonar: false, estimate_td: true, td_initial_s: 0.01, "
+                                     "factors: {reprojection: {pixel_sigma: 2.0}}}"));
   EXPECT_EQ(o.window_size, 8);
   EXPECT_FALSE(o.use_sonar);
   EXPECT_TRUE(o.estimate_td);
@@ -37,8 +38,7 @@ TEST(EstimatorOptions, RejectsUnknownAndBadValuesNamingTheKey) {
   EXPECT_NE(message("{window_size: 1}").find("window_size"), std::string::npos);
   EXPECT_NE(message("{keyframe_parallax_px: -1}").find("keyframe_parallax_px"), std::string::npos);
   EXPECT_NE(message("{td_initial_s: 0.3}").find("td_initial_s"), std::string::npos);
-  EXPECT_NE(message("{min_feature_depth_m: 2, max_feature_depth_m: 1}").find("max_feature_depth_m"),
-            std::string::npos);
+  EXPECT_NE(message("{min_feature_depth_m: 2, max_feature_depth_m: 1}").find("max_feature_depth_m"), std::string::npos);
   EXPECT_NE(message("{factors: {reprojection: {pixel_sigma: 0}}}").find("pixel_sigma"), std::string::npos);
   EXPECT_NE(message("{use_sonar: maybe}").find("use_sonar"), std::string::npos);
 }

@@ -87,7 +87,7 @@ TEST(FactorJacobians, ImuFactor) {
     // The residual is far from zero: the check runs at a non-trivial point.
     EXPECT_GT(test::evaluateResidual(factor, params).norm(), 10.0);
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kEuclid, kPose, kEuclid}, kStep, kTol,
-                         "imu seed " + std::to_string(seed)));
+                                                 "imu seed " + std::to_string(seed)));
   }
   RecordProperty("worst_relative_error", test::sci(worst));
 }
@@ -138,7 +138,7 @@ TEST(FactorJacobians, ReprojectionFactorWithDirectDepthAndTimeOffset) {
     std::vector<std::vector<double>> params = {poseBlock(T_l_bi), poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
     EXPECT_GT(test::evaluateResidual(factor, params).norm(), 0.5);
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
-                         "reprojection seed " + std::to_string(seed)));
+                                                 "reprojection seed " + std::to_string(seed)));
   }
   RecordProperty("worst_relative_error", test::sci(worst));
 }
@@ -206,7 +206,7 @@ TEST(FactorJacobians, SonarDepthFactor) {
     const SonarDepthFactor factor(anchor, range, T_b_s, 0.07);
     std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
-                         "sonar seed " + std::to_string(seed)));
+                                                 "sonar seed " + std::to_string(seed)));
 
     // The residual does not depend on the keyframe's position (it cancels).
     std::vector<std::vector<double>> moved = params;
@@ -231,7 +231,7 @@ TEST(FactorJacobians, SeabedHeightFactor) {
     const SeabedHeightFactor factor(anchor, SeabedPlane{-2.5 + randomVector(rng, 0.5).x()}, 0.3);
     std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}};
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
-                         "seabed seed " + std::to_string(seed)));
+                                                 "seabed seed " + std::to_string(seed)));
     // Unlike the sonar factor it pins the absolute height: raising the keyframe by 0.6 m
     // lowers the residual by 0.6 m / sigma; a horizontal move changes nothing.
     std::vector<std::vector<double>> raised = params, moved = params;
@@ -260,7 +260,8 @@ TEST(FactorJacobians, SlopedSonarDepthFactor) {
     const double td = randomVector(rng, 0.02).x();
     const Eigen::Vector2d slope = randomVector(rng, 0.15).head<2>();  // up to ~8.5 deg
     const SlopedSonarDepthFactor factor(anchor, range, T_b_s, 0.07);
-    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}, {slope.x(), slope.y()}};
+    std::vector<std::vector<double>> params = {
+        poseBlock(T_l_bk), poseBlock(T_b_c), {lambda}, {td}, {slope.x(), slope.y()}};
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid, kEuclid}, kStep, kTol,
                                                  "sloped sonar seed " + std::to_string(seed)));
     std::vector<std::vector<double>> moved = params;  // the keyframe's position still cancels
@@ -289,8 +290,8 @@ TEST(FactorJacobians, SeabedHeightFactorOnASlopedPlane) {
     const SeabedPlane plane{-2.5 + randomVector(rng, 0.5).x(), randomVector(rng, 4.0).head<2>(),
                             randomVector(rng, 0.15).head<2>()};
     const SeabedHeightFactor factor(anchor, plane, 0.3);
-    std::vector<std::vector<double>> params = {poseBlock(T_l_bk), poseBlock(T_b_c), {3.0 + randomVector(rng, 1.0).x()},
-                                               {randomVector(rng, 0.02).x()}};
+    std::vector<std::vector<double>> params = {
+        poseBlock(T_l_bk), poseBlock(T_b_c), {3.0 + randomVector(rng, 1.0).x()}, {randomVector(rng, 0.02).x()}};
     worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
                                                  "sloped seabed seed " + std::to_string(seed)));
     // A horizontal move along the gradient by d changes the residual by |g| d (the seabed rises).
@@ -313,15 +314,15 @@ TEST(SonarDepth, SlopedPlaneExplainsASlopingSeabedThatTheHorizontalOneCannot) {
   const Eigen::Vector2d slope(g, 0.0);
   // Camera looking straight down from the body origin: the ray of uv hits z = -3 + g x.
   FeatureObservation anchor;
-  anchor.uv = Eigen::Vector2d(0.5, 0.0);  // camera x = body x (rotation about x keeps it)
+  anchor.uv = Eigen::Vector2d(0.5, 0.0);     // camera x = body x (rotation about x keeps it)
   const double z_c = 3.0 / (1.0 + g * 0.5);  // depth where -z_c = -3 + g (0.5 z_c)
   const double lambda = z_c * std::sqrt(1.0 + 0.25);
   EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0, nullptr, slope), 0.0, 1e-12);
   // The horizontal plane sees the feature 1.4 m from the beam 0.1 m too high.
   EXPECT_NEAR(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0), -g * 0.5 * z_c, 1e-12);
   EXPECT_GT(std::abs(sonarDepthResidual(anchor, 3.0, T_down, T_l_b, T_down, lambda, 0.0)), 0.09);
-  EXPECT_NEAR(SeabedPlane({-3.0, Eigen::Vector2d::Zero(), slope}).heightAt(Eigen::Vector2d(0.5 * z_c, 0.0)),
-              -z_c, 1e-12);
+  EXPECT_NEAR(SeabedPlane({-3.0, Eigen::Vector2d::Zero(), slope}).heightAt(Eigen::Vector2d(0.5 * z_c, 0.0)), -z_c,
+              1e-12);
 }
 
 TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
@@ -348,10 +349,12 @@ TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
   const double lambda_on = 3.5;
   const double r_on = seabedHeightResidual(anchor, SeabedPlane{h}, T_l_bk, T_b_c, lambda_on, 0.0);
   options.gate_max_height_difference = 1.0;
-  EXPECT_FALSE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 0.0),
-                                options).consistent);
-  EXPECT_TRUE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0, options.carriedSigma(0.06, 10.0),
-                               options).consistent);
+  EXPECT_FALSE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0,
+                                options.carriedSigma(0.06, 0.0), options)
+                   .consistent);
+  EXPECT_TRUE(seabedHeightGate(anchor, SeabedPlane{h + 0.3 - r_on}, T_l_bk, T_b_c, lambda_on, 0.0,
+                               options.carriedSigma(0.06, 10.0), options)
+                  .consistent);
   EXPECT_THROW(SeabedHeightFactor(anchor, SeabedPlane{std::nan("")}, 0.1), std::invalid_argument);
   EXPECT_THROW(SeabedHeightFactor(anchor, SeabedPlane{0.0}, 0.0), std::invalid_argument);
 }
@@ -391,7 +394,8 @@ TEST(SonarDepth, ResidualIsHeightDifferenceAndGateFlagsOffPlaneFeatures) {
   EXPECT_NEAR(SonarDepthOptions::sigmaAt(sigma, 0.0, misfit), sigma, 1e-15);
   EXPECT_NEAR(SonarDepthOptions::sigmaAt(sigma, distance, misfit), std::hypot(sigma, 0.3 * distance), 1e-15);
   EXPECT_TRUE(sonarDepthGate(anchor, 3.0, T_down, T_l_b, T_down, lambda_high, 0.0,
-                             SonarDepthOptions::sigmaAt(sigma, distance, misfit), options).consistent);
+                             SonarDepthOptions::sigmaAt(sigma, distance, misfit), options)
+                  .consistent);
   (void)rng;
 }
 
@@ -453,7 +457,8 @@ TEST(FactorJacobians, PosePriorFactor) {
     S = S.triangularView<Eigen::Upper>();
     const PosePriorFactor factor(p0, q0, S);
     std::vector<std::vector<double>> params = {poseBlock(p0 + randomVector(rng, 1.0), q0 * randomRotation(rng, 0.8))};
-    worst = std::max(worst, test::checkJacobians(factor, params, {kPose}, kStep, kTol, "prior seed " + std::to_string(seed)));
+    worst = std::max(worst,
+                     test::checkJacobians(factor, params, {kPose}, kStep, kTol, "prior seed " + std::to_string(seed)));
   }
   RecordProperty("worst_relative_error", test::sci(worst));
 }
@@ -464,7 +469,7 @@ TEST(PosePrior, PositionYawGaugeLeavesRollPitchFree) {
   auto cost = [&](const Eigen::Quaterniond& q) {
     return test::evaluateResidual(factor, {poseBlock(Eigen::Vector3d::Zero(), q)}).norm();
   };
-  EXPECT_LT(cost(so3::exp(Eigen::Vector3d(0.2, -0.1, 0.0))), 0.03);  // roll/pitch: second order only
+  EXPECT_LT(cost(so3::exp(Eigen::Vector3d(0.2, -0.1, 0.0))), 0.03);         // roll/pitch: second order only
   EXPECT_NEAR(cost(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.1))), 10.0, 1e-9);  // yaw: 0.1 rad / 0.01
 }
 
@@ -480,10 +485,10 @@ TEST(FactorJacobians, RelativePoseFactor) {
     const RelativePoseFactor factor(p_ij, q_ij, S);
     const Eigen::Vector3d p_i = randomVector(rng, 3.0);
     const Eigen::Quaterniond q_i = randomRotation(rng, 3.0);
-    std::vector<std::vector<double>> params = {
-        poseBlock(p_i, q_i),
-        poseBlock(p_i + q_i * p_ij + randomVector(rng, 0.5), q_i * q_ij * randomRotation(rng, 0.7))};
-    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose}, kStep, kTol, "relative seed " + std::to_string(seed)));
+    std::vector<std::vector<double>> params = {poseBlock(p_i, q_i), poseBlock(p_i + q_i * p_ij + randomVector(rng, 0.5),
+                                                                              q_i * q_ij * randomRotation(rng, 0.7))};
+    worst = std::max(worst, test::checkJacobians(factor, params, {kPose, kPose}, kStep, kTol,
+                                                 "relative seed " + std::to_string(seed)));
   }
   RecordProperty("worst_relative_error", test::sci(worst));
 }
@@ -496,7 +501,8 @@ TEST(FactorJacobians, MarginalizationFactorAwayFromTheLinearisationPoint) {
     const std::vector<int> sizes = {7, 9, 7, 1};
     const std::vector<BlockManifold> manifolds = {kPose, kEuclid, kPose, kEuclid};
     std::vector<std::vector<double>> x0_blocks = {poseBlock(randomVector(rng, 2.0), randomRotation(rng, 3.0)),
-                                                  std::vector<double>(9), poseBlock(randomVector(rng, 2.0), randomRotation(rng, 3.0)),
+                                                  std::vector<double>(9),
+                                                  poseBlock(randomVector(rng, 2.0), randomRotation(rng, 3.0)),
                                                   {1.7}};
     for (double& v : x0_blocks[1]) v = randomVector(rng, 1.0).x();
     for (size_t b = 0; b < sizes.size(); ++b) {
@@ -518,7 +524,8 @@ TEST(FactorJacobians, MarginalizationFactorAwayFromTheLinearisationPoint) {
     }
     for (double& v : params[1]) v += randomVector(rng, 0.3).x();
     params[3][0] += 0.4;
-    worst = std::max(worst, test::checkJacobians(factor, params, manifolds, kStep, kTol, "marginalization seed " + std::to_string(seed)));
+    worst = std::max(worst, test::checkJacobians(factor, params, manifolds, kStep, kTol,
+                                                 "marginalization seed " + std::to_string(seed)));
 
     // At x0 the residual is r0.
     EXPECT_LT((test::evaluateResidual(factor, x0_blocks) - prior->r0).norm(), 1e-12);

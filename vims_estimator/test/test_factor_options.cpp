@@ -53,14 +53,17 @@ TEST(FactorOptions, UnknownKeysAndBadValuesNameTheKey) {
     EXPECT_NE(std::string(e.what()).find("reprojection.pixel_sigma"), std::string::npos) << e.what();
   }
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("imu: {}")), ConfigError);
-  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_slope_std: -0.1}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_slope_std: -0.1}")),
+               ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_per_m: -0.1}")), ConfigError);
-  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_history_hits: 0}")), ConfigError);
+  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_history_hits: 0}")),
+               ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {misfit_min_pairs: -3}")), ConfigError);
   EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("sonar_depth: {carry_max_distance_m: 0}")),
                ConfigError);
-  EXPECT_THROW(FactorOptions::fromReader(ConfigReader::fromString("marginalization: {eigenvalue_absolute_threshold: 0}")),
-               ConfigError);
+  EXPECT_THROW(
+      FactorOptions::fromReader(ConfigReader::fromString("marginalization: {eigenvalue_absolute_threshold: 0}")),
+      ConfigError);
 }
 
 }  // namespace

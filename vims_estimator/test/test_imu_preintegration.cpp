@@ -56,15 +56,16 @@ TEST(AnalyticTrajectory, AngularRateAndSpecificForceAreConsistentWithTheMotion) 
   const double h = 1e-5;
   for (double t : {0.1, 0.77, 2.3}) {
     // R^T dR/dt = [omega_b]x
-    const Eigen::Matrix3d dR = (traj.rotation(t + h).toRotationMatrix() - traj.rotation(t - h).toRotationMatrix()) / (2 * h);
+    const Eigen::Matrix3d dR =
+        (traj.rotation(t + h).toRotationMatrix() - traj.rotation(t - h).toRotationMatrix()) / (2 * h);
     const Eigen::Matrix3d W = traj.rotation(t).toRotationMatrix().transpose() * dR;
     EXPECT_LT((W - so3::skew(traj.angularRateBody(t))).cwiseAbs().maxCoeff(), 1e-8);
     EXPECT_LT(((traj.position(t + h) - traj.position(t - h)) / (2 * h) - traj.velocity(t)).norm(), 1e-8);
     EXPECT_LT(((traj.velocity(t + h) - traj.velocity(t - h)) / (2 * h) - traj.acceleration(t)).norm(), 1e-8);
   }
   // At rest the accelerometer reads +g up.
-  const test::AnalyticTrajectory rest = test::AnalyticTrajectory::constantVelocity(
-      Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0, 0.0);
+  const test::AnalyticTrajectory rest =
+      test::AnalyticTrajectory::constantVelocity(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0, 0.0);
   EXPECT_LT((rest.imu(0.3).accel - Eigen::Vector3d(0, 0, 9.81)).norm(), 1e-12);
 }
 
@@ -149,10 +150,10 @@ TEST(ImuPreintegration, FirstOrderBiasCorrectionMatchesRepropagation) {
 
     const double change = (re.alpha() - pre.alpha()).norm() + (re.beta() - pre.beta()).norm() +
                           so3::log(pre.gamma().conjugate() * re.gamma()).norm();
-    const double error = (alpha_c - re.alpha()).norm() + (beta_c - re.beta()).norm() +
-                         so3::log(gamma_c.conjugate() * re.gamma()).norm();
-    EXPECT_GT(change, scale * 0.05);          // the bias change matters ...
-    EXPECT_LT(error, 0.01 * change);          // ... and the linear correction captures > 99 % of it
+    const double error =
+        (alpha_c - re.alpha()).norm() + (beta_c - re.beta()).norm() + so3::log(gamma_c.conjugate() * re.gamma()).norm();
+    EXPECT_GT(change, scale * 0.05);  // the bias change matters ...
+    EXPECT_LT(error, 0.01 * change);  // ... and the linear correction captures > 99 % of it
     if (scale == 0.5) {
       EXPECT_NEAR(previous_error / error, 4.0, 0.6);  // second-order remainder
     }
@@ -182,7 +183,7 @@ TEST(ImuPreintegration, CovarianceMatchesMonteCarlo) {
   ImuNoiseParams noise;
   noise.gyro_noise_density = 2e-3;
   noise.accel_noise_density = 2e-2;
-  noise.gyro_random_walk = 1e-3;   // large random walks so the bias coupling shows within 1 s
+  noise.gyro_random_walk = 1e-3;  // large random walks so the bias coupling shows within 1 s
   noise.accel_random_walk = 1e-2;
   const double rate = 200.0, ti = 0.4, tj = 1.4;
   const double dt = 1.0 / rate;
@@ -239,10 +240,10 @@ TEST(ImuPreintegration, CovarianceMatchesMonteCarlo) {
 // Covariance does not depend on the IMU rate (the densities are discretised with dt).
 TEST(ImuPreintegration, CovarianceIsRateIndependent) {
   const test::AnalyticTrajectory traj;
-  const ImuPreintegration p200 = ImuPreintegration::fromSamples(sampleImu(traj, 0.0, 1.0, 200.0, 0.0, 1),
-                                                                Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), testNoise());
-  const ImuPreintegration p800 = ImuPreintegration::fromSamples(sampleImu(traj, 0.0, 1.0, 800.0, 0.0, 1),
-                                                                Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), testNoise());
+  const ImuPreintegration p200 = ImuPreintegration::fromSamples(
+      sampleImu(traj, 0.0, 1.0, 200.0, 0.0, 1), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), testNoise());
+  const ImuPreintegration p800 = ImuPreintegration::fromSamples(
+      sampleImu(traj, 0.0, 1.0, 800.0, 0.0, 1), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), testNoise());
   for (int i = 0; i < 15; ++i) EXPECT_NEAR(p800.covariance()(i, i) / p200.covariance()(i, i), 1.0, 0.02) << i;
 }
 

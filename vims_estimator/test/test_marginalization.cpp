@@ -90,7 +90,8 @@ TEST(Marginalization, SchurComplementIsExactOnLinearProblems) {
   const Eigen::MatrixXd H = J.transpose() * J;
   const Eigen::VectorXd g = J.transpose() * r;
   const Eigen::MatrixXd Hdd_inv = H.topLeftCorner(3, 3).inverse();
-  const Eigen::MatrixXd H_star = H.bottomRightCorner(6, 6) - H.bottomLeftCorner(6, 3) * Hdd_inv * H.topRightCorner(3, 6);
+  const Eigen::MatrixXd H_star =
+      H.bottomRightCorner(6, 6) - H.bottomLeftCorner(6, 3) * Hdd_inv * H.topRightCorner(3, 6);
   const Eigen::VectorXd g_star = g.tail(6) - H.bottomLeftCorner(6, 3) * Hdd_inv * g.head(3);
   EXPECT_LT((prior->J.transpose() * prior->J - H_star).norm(), 1e-10 * H_star.norm());
   EXPECT_LT((prior->J.transpose() * prior->r0 - g_star).norm(), 1e-10 * std::max(1.0, g_star.norm()));
@@ -257,7 +258,8 @@ TEST(Marginalization, RankDeficiencyIsThresholdedNotInverted) {
 
 TEST(Marginalization, MisuseIsRejected) {
   std::vector<double> a(3, 0.0), b(3, 0.0), c(3, 0.0);
-  auto f = std::make_shared<LinearCost>(Eigen::MatrixXd::Identity(3, 6), Eigen::VectorXd::Zero(3), std::vector<int>{3, 3});
+  auto f =
+      std::make_shared<LinearCost>(Eigen::MatrixXd::Identity(3, 6), Eigen::VectorXd::Zero(3), std::vector<int>{3, 3});
   MarginalizationInfo info;
   info.addParameterBlock(a.data(), 3, BlockManifold::kEuclidean);
   EXPECT_THROW(info.addResidualBlock(f, nullptr, {a.data(), b.data()}), std::invalid_argument);  // b undeclared
@@ -280,8 +282,8 @@ TEST(Marginalization, RobustLossLinearisationMatchesCeres) {
     Eigen::MatrixXd A(2, 3);
     A << 1.0, 0.5, 0.0, -0.3, 2.0, 0.0;
     auto robust = std::make_shared<LinearCost>(A, Eigen::Vector2d(0.1, -0.2), std::vector<int>{2, 1});
-    auto anchor_d = std::make_shared<LinearCost>(Eigen::MatrixXd::Identity(1, 1), Eigen::VectorXd::Zero(1),
-                                                 std::vector<int>{1});
+    auto anchor_d =
+        std::make_shared<LinearCost>(Eigen::MatrixXd::Identity(1, 1), Eigen::VectorXd::Zero(1), std::vector<int>{1});
     for (int which = 0; which < 2; ++which) {
       std::shared_ptr<ceres::LossFunction> loss =
           which == 0 ? std::shared_ptr<ceres::LossFunction>(new ceres::HuberLoss(1.0))

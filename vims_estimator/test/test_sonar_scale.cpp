@@ -18,15 +18,15 @@ namespace vims {
 namespace {
 
 struct Scene {
-  test::AnalyticTrajectory traj = test::AnalyticTrajectory::constantVelocity(
-      Eigen::Vector3d(0.0, 0.0, 3.0), Eigen::Vector3d(0.4, 0.15, 0.0), 0.3, 0.1);
+  test::AnalyticTrajectory traj = test::AnalyticTrajectory::constantVelocity(Eigen::Vector3d(0.0, 0.0, 3.0),
+                                                                             Eigen::Vector3d(0.4, 0.15, 0.0), 0.3, 0.1);
   std::vector<double> times = {0.0, 0.5, 1.0};
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-  std::vector<FeatureObservation> anchors;                 // in keyframe 0
-  std::vector<std::vector<FeatureObservation>> targets;    // [feature][keyframe 1, 2]
+  std::vector<FeatureObservation> anchors;               // in keyframe 0
+  std::vector<std::vector<FeatureObservation>> targets;  // [feature][keyframe 1, 2]
   std::vector<double> lambda_true;
-  double range0 = 0.0;                                     // sonar range at keyframe 0
+  double range0 = 0.0;  // sonar range at keyframe 0
   std::vector<std::shared_ptr<ImuPreintegration>> preintegrations;
   ImuNoiseParams noise;
 
@@ -34,8 +34,9 @@ struct Scene {
     // Down-looking camera at the IMU origin (no lever arm, so VIO has an exact scale null
     // direction); the sonar is offset and slightly tilted.
     T_b_c.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()))
-                         .toRotationMatrix();
+    T_b_s.linear() =
+        (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
     T_b_s.translation() = Eigen::Vector3d(-0.15, 0.05, -0.1);
 
     // Sonar: intersection of the beam with the seabed plane z = 0.
@@ -58,8 +59,7 @@ struct Scene {
       std::vector<FeatureObservation> obs;
       for (int k = 1; k < 3; ++k) {
         FeatureObservation t;  // uv = 0: the residual is then the projection itself
-        const Eigen::Vector2d proj =
-            reprojectionResidual(a, t, T_l_b0, traj.pose(times[k]), T_b_c, lambda, 0.0);
+        const Eigen::Vector2d proj = reprojectionResidual(a, t, T_l_b0, traj.pose(times[k]), T_b_c, lambda, 0.0);
         t.uv = proj;
         obs.push_back(t);
       }
@@ -80,9 +80,9 @@ struct Scene {
 };
 
 struct Result {
-  double scale = 0.0;              // estimated / true distance travelled
-  double lambda_rel_error = 0.0;   // max |lambda / lambda_true - 1|
-  double min_eigen_ratio = 0.0;    // smallest / largest eigenvalue of J^T J at the solution
+  double scale = 0.0;             // estimated / true distance travelled
+  double lambda_rel_error = 0.0;  // max |lambda / lambda_true - 1|
+  double min_eigen_ratio = 0.0;   // smallest / largest eigenvalue of J^T J at the solution
 };
 
 /// Builds and solves the window starting from the truth scaled by `initial_scale` (positions

@@ -15,11 +15,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -103,8 +103,7 @@ TdRun runSequence(const std::string& dir, const vims::EstimatorOptions& options,
   vims::eval::TrajectoryEvalOptions eval_options;
   eval_options.alignments = {vims::eval::AlignmentMode::kSe3, vims::eval::AlignmentMode::kSim3};
   if (run.poses.size() > 50) {
-    const auto evaluation =
-        vims::eval::evaluateTrajectory(vims::readTumFile(paths.gt), run.poses, eval_options, "vio");
+    const auto evaluation = vims::eval::evaluateTrajectory(vims::readTumFile(paths.gt), run.poses, eval_options, "vio");
     run.ate_pct = evaluation.find(vims::eval::AlignmentMode::kSe3)->ate_rmse_pct;
     run.sim3_scale = evaluation.find(vims::eval::AlignmentMode::kSim3)->S_w_v.scale;
   }

@@ -52,7 +52,8 @@ inline std::vector<double> poseBlock(const Eigen::Isometry3d& T) {
 }
 
 /// Evaluates the residual of `cost` at `params` (no Jacobians).
-inline Eigen::VectorXd evaluateResidual(const ceres::CostFunction& cost, const std::vector<std::vector<double>>& params) {
+inline Eigen::VectorXd evaluateResidual(const ceres::CostFunction& cost,
+                                        const std::vector<std::vector<double>>& params) {
   std::vector<const double*> ptrs;
   for (const auto& p : params) ptrs.push_back(p.data());
   Eigen::VectorXd r(cost.num_residuals());

@@ -6,11 +6,10 @@
 
 #include <gtest/gtest.h>
 
-#include <deque>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -49,8 +48,8 @@ struct Perturbation {
 struct RunResult {
   std::vector<vims::StampedPose> poses;  ///< body pose at every frame stamp (what vio.tum holds)
   std::vector<vims::VioFrameResult> results;
-  int resets = 0;                ///< frames reporting a reset (failure detection)
-  long estimator_resets = 0;     ///< every dropped session, also those an IMU input triggered
+  int resets = 0;             ///< frames reporting a reset (failure detection)
+  long estimator_resets = 0;  ///< every dropped session, also those an IMU input triggered
   std::uint32_t last_session = 0;
   bool all_finite = true;
   double td = 0.0;
@@ -163,8 +162,8 @@ Accuracy evaluate(const std::string& dir, const std::vector<vims::StampedPose>& 
   return a;
 }
 
-#define REQUIRE_SEQUENCE(dir, name)                                                                 \
-  const std::string dir = sequenceDir(name);                                                        \
+#define REQUIRE_SEQUENCE(dir, name)          \
+  const std::string dir = sequenceDir(name); \
   if (dir.empty()) GTEST_SKIP() << "VIMS_TEST_DATA is not set (run through ctest with its fixture)"
 
 }  // namespace
@@ -345,7 +344,9 @@ TEST(VioBadInput, SonarOutageFallsBackToVisualInertial) {
     if (std::isnan(first_t)) first_t = s.t;
     return true;
   };
-  p.sonar = [&](vims::SonarRange& r) { return !(r.t - first_t > 0.0 && r.t - first_t < 30.0); };  // sonar off throughout
+  p.sonar = [&](vims::SonarRange& r) {
+    return !(r.t - first_t > 0.0 && r.t - first_t < 30.0);
+  };  // sonar off throughout
   const RunResult run = runVio(dir, vims::EstimatorOptions(), p);
   EXPECT_TRUE(run.all_finite);
   EXPECT_GT(run.poses.size(), 250u);

@@ -9,12 +9,12 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <functional>
-#include <limits>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -96,9 +96,9 @@ const std::vector<std::string>& ablationModes() {
 }
 
 std::string ablationMethodName(const std::string& mode) {
-  static const std::map<std::string, std::string> kNames = {
-      {"vi_slam", "VI-SLAM"}, {"no_sonar", "w/o Sonar"}, {"no_alter", "w/o Alter."},
-      {"no_orb", "w/o ORB"},  {"no_geom", "w/o Geom."},  {"full", "Full VIMS"}};
+  static const std::map<std::string, std::string> kNames = {{"vi_slam", "VI-SLAM"},     {"no_sonar", "w/o Sonar"},
+                                                            {"no_alter", "w/o Alter."}, {"no_orb", "w/o ORB"},
+                                                            {"no_geom", "w/o Geom."},   {"full", "Full VIMS"}};
   const auto it = kNames.find(mode);
   return it == kNames.end() ? mode : it->second;
 }
@@ -128,8 +128,8 @@ double readRealTimeFactor(const std::string& summary_yaml_path) {
   return nan;
 }
 
-AblationRow evaluateAblationRun(const std::string& mode, const std::string& run_dir,
-                                const std::vector<StampedPose>& gt, const EvalOptions& options) {
+AblationRow evaluateAblationRun(const std::string& mode, const std::string& run_dir, const std::vector<StampedPose>& gt,
+                                const EvalOptions& options) {
   AblationRow row;
   row.mode = mode;
   row.vio_trans_rmse_m = std::nan("");
@@ -169,7 +169,8 @@ AblationRow evaluateAblationRun(const std::string& mode, const std::string& run_
       row.revisit_events = ev.revisits.events;
       row.revisit_closed = ev.revisits.closed;
       for (const ScoredLoop& l : ev.score.loops)
-        if (l.record.accepted && l.has_gt && l.within_tolerance) row.correct_loop_query_times.push_back(l.record.t_query);
+        if (l.record.accepted && l.has_gt && l.within_tolerance)
+          row.correct_loop_query_times.push_back(l.record.t_query);
     } catch (const std::exception& e) {
       row.ok = false;
       row.error = std::string("loops.csv: ") + e.what();
@@ -196,10 +197,10 @@ std::string ablationMarkdown(const std::vector<AblationRow>& rows) {
       continue;
     }
     os << loopClosingCell(r) << " | " << (r.has_loops ? std::to_string(r.wrong) : "n/a") << " | "
-       << (r.has_loops ? std::to_string(r.revisit_closed) + "/" + std::to_string(r.revisit_events) : "n/a")
-       << " | " << fixed(r.trans_rmse_m, 3) << " | " << fixed(r.trans_pct, 3) << " | " << fixed(r.rot_rmse_deg, 2)
-       << " | " << fixed(r.vio_trans_rmse_m, 3) << " | " << fixed(r.globalOverVio(), 2) << " | "
-       << fixed(r.real_time_factor, 1) << " |\n";
+       << (r.has_loops ? std::to_string(r.revisit_closed) + "/" + std::to_string(r.revisit_events) : "n/a") << " | "
+       << fixed(r.trans_rmse_m, 3) << " | " << fixed(r.trans_pct, 3) << " | " << fixed(r.rot_rmse_deg, 2) << " | "
+       << fixed(r.vio_trans_rmse_m, 3) << " | " << fixed(r.globalOverVio(), 2) << " | " << fixed(r.real_time_factor, 1)
+       << " |\n";
   }
   return os.str();
 }
@@ -213,11 +214,11 @@ std::string ablationCsv(const std::vector<AblationRow>& rows) {
     const bool loops = r.ok && r.has_loops;
     auto count = [&](std::size_t v) { return loops ? std::to_string(v) : std::string(); };
     os << r.mode << "," << csvQuoted(ablationMethodName(r.mode)) << "," << (r.ok ? "ok" : "failed") << ","
-       << count(r.verifications) << "," << count(r.accepted) << "," << count(r.correct) << "," << count(r.wrong)
-       << "," << count(r.revisit_events) << "," << count(r.revisit_closed) << ","
-       << precise(r.ok ? r.trans_rmse_m : nan) << "," << precise(r.ok ? r.trans_pct : nan) << ","
-       << precise(r.ok ? r.rot_rmse_deg : nan) << "," << precise(r.ok ? r.vio_trans_rmse_m : nan) << ","
-       << precise(r.ok ? r.globalOverVio() : nan) << "," << precise(r.real_time_factor) << "," << csvQuoted(r.error) << "\n";
+       << count(r.verifications) << "," << count(r.accepted) << "," << count(r.correct) << "," << count(r.wrong) << ","
+       << count(r.revisit_events) << "," << count(r.revisit_closed) << "," << precise(r.ok ? r.trans_rmse_m : nan)
+       << "," << precise(r.ok ? r.trans_pct : nan) << "," << precise(r.ok ? r.rot_rmse_deg : nan) << ","
+       << precise(r.ok ? r.vio_trans_rmse_m : nan) << "," << precise(r.ok ? r.globalOverVio() : nan) << ","
+       << precise(r.real_time_factor) << "," << csvQuoted(r.error) << "\n";
   }
   return os.str();
 }
@@ -249,7 +250,8 @@ std::vector<AblationClaim> ablationClaims(const std::vector<AblationRow>& rows) 
   const AblationRow* full = find("full");
   if (!full) return claims;
   if (std::isfinite(full->globalOverVio())) {
-    claims.push_back({"full_not_worse_than_vio", "full: the global trajectory is not worse than its VIO (global / VIO <= 1)",
+    claims.push_back({"full_not_worse_than_vio",
+                      "full: the global trajectory is not worse than its VIO (global / VIO <= 1)",
                       full->globalOverVio() <= 1.0, "global / VIO " + fixed(full->globalOverVio(), 2)});
   }
   {
@@ -262,10 +264,12 @@ std::vector<AblationClaim> ablationClaims(const std::vector<AblationRow>& rows) 
       detail += ", " + r.mode + " " + fixed(r.trans_rmse_m, 4);
       if (r.trans_rmse_m < full->trans_rmse_m) lowest = false;
     }
-    if (others > 0) claims.push_back({"full_lowest_trans", "full has the lowest translation RMSE of all modes", lowest, detail});
+    if (others > 0)
+      claims.push_back({"full_lowest_trans", "full has the lowest translation RMSE of all modes", lowest, detail});
   }
   if (const AblationRow* g = find("no_geom")) {
-    claims.push_back({"no_geom_larger_rot", "w/o Geom. has a larger rotation RMSE than full", g->rot_rmse_deg > full->rot_rmse_deg,
+    claims.push_back({"no_geom_larger_rot", "w/o Geom. has a larger rotation RMSE than full",
+                      g->rot_rmse_deg > full->rot_rmse_deg,
                       "no_geom " + fixed(g->rot_rmse_deg, 3) + " deg, full " + fixed(full->rot_rmse_deg, 3)});
   }
   for (const char* mode : {"vi_slam", "no_alter", "no_orb"}) {
@@ -326,8 +330,7 @@ std::string executableDir() {
 }
 
 std::vector<ProcessResult> runProcesses(const std::vector<std::vector<std::string>>& commands,
-                                        const std::vector<std::string>& log_files, int jobs,
-                                        std::ostream& progress) {
+                                        const std::vector<std::string>& log_files, int jobs, std::ostream& progress) {
   if (log_files.size() != commands.size()) throw std::invalid_argument("runProcesses: one log file per command");
   std::vector<ProcessResult> results(commands.size());
   std::map<pid_t, std::size_t> running;
@@ -345,8 +348,7 @@ std::vector<ProcessResult> runProcesses(const std::vector<std::vector<std::strin
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_files[i].c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                     0644);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_files[i].c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
     pid_t pid = 0;
     const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
@@ -411,8 +413,9 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
     std::vector<std::string> logs;
     for (const auto& mode : options.modes) {
       fs::create_directories(runDir(mode), ec);
-      std::vector<std::string> cmd = {options.offline_binary, "--sequence", seq.dir, "--out", runDir(mode),
-                                      "--mode", mode, "--map-save", mapFile(mode), "--quiet"};
+      std::vector<std::string> cmd = {options.offline_binary, "--sequence", seq.dir, "--out",
+                                      runDir(mode),           "--mode",     mode,    "--map-save",
+                                      mapFile(mode),          "--quiet"};
       if (!options.offline_config.empty()) {
         cmd.push_back("--config");
         cmd.push_back(options.offline_config);
@@ -420,8 +423,8 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
       commands.push_back(cmd);
       logs.push_back((fs::path(runDir(mode)) / "offline.log").string());
     }
-    out << "== ablation: " << options.modes.size() << " variants of vims_offline on " << seq.dir << ", "
-        << options.jobs << " at a time" << std::endl;
+    out << "== ablation: " << options.modes.size() << " variants of vims_offline on " << seq.dir << ", " << options.jobs
+        << " at a time" << std::endl;
     const auto results = runProcesses(commands, logs, options.jobs, out);
     for (std::size_t i = 0; i < options.modes.size(); ++i) {
       const ProcessResult& r = results[i];
@@ -429,8 +432,8 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
         run_failure[options.modes[i]] = "vims_offline: " + r.error;
       } else if (r.exit_code != 0) {
         const std::string tail = lastLines(logs[i], 1);
-        run_failure[options.modes[i]] = "vims_offline exit status " + std::to_string(r.exit_code) +
-                                        (tail.empty() ? "" : " (" + tail + ")");
+        run_failure[options.modes[i]] =
+            "vims_offline exit status " + std::to_string(r.exit_code) + (tail.empty() ? "" : " (" + tail + ")");
       }
     }
   }
@@ -464,21 +467,24 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
       std::ostringstream os;
       os << "The magnetic stage against vision alone (w/o Alter.): of the " << m.vision_queries
          << " query keyframes w/o Alter. closed with a correct loop, full closed " << m.same_query
-         << " at the same keyframe and " << m.within_window << " within " << fixed(m.window_s, 0)
-         << " s; full closed " << m.full_only << " queries w/o Alter. did not.\n";
+         << " at the same keyframe and " << m.within_window << " within " << fixed(m.window_s, 0) << " s; full closed "
+         << m.full_only << " queries w/o Alter. did not.\n";
       recall_text = os.str();
     }
   }
   {
     std::ofstream md(md_path);
-    md << "# Ablation study: " << seq.name << "\n\n" << table << "\n"
+    md << "# Ablation study: " << seq.name << "\n\n"
+       << table << "\n"
        << "Loop closing: correct loops / loop verification attempts (loops.csv rows); a loop is correct within "
        << fixed(options.eval.loops.trans_tol_m, 2) << " m and " << fixed(options.eval.loops.rot_tol_deg, 1)
        << " deg of the ground truth. Trans./Rot. RMSE: global.tum against the ground truth after SE3 alignment. "
           "Revisits: ground-truth revisit events (radius "
        << fixed(options.eval.revisit.radius_m, 2) << " m, gap " << fixed(options.eval.revisit.min_gap_s, 0)
        << " s) closed by a correct loop. docs/evaluation.md, \"Ablation\".\n\n"
-       << "The paper's ablation order:\n\n" << ablationClaimsMarkdown(claims) << "\n" << recall_text;
+       << "The paper's ablation order:\n\n"
+       << ablationClaimsMarkdown(claims) << "\n"
+       << recall_text;
     if (!md) throw std::runtime_error("cannot write '" + md_path + "'");
   }
   {
@@ -503,8 +509,8 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
     if (have("full")) trajectories.emplace_back("VIMS", (fs::path(runDir("full")) / "global.tum").string());
     if (!trajectories.empty())
       attempt("trajectories", [&] {
-        return std::vector<std::string>{writeTrajectoryComparison(
-            gt, trajectories, (fs::path(options.out_dir) / "trajectories_top.png").string())};
+        return std::vector<std::string>{
+            writeTrajectoryComparison(gt, trajectories, (fs::path(options.out_dir) / "trajectories_top.png").string())};
       });
     if (have("full") && fs::exists(mapFile("full")))
       attempt("multi-scale map", [&] {
@@ -522,8 +528,8 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
         const PlaceRecognitionOptions pr_options = options.offline_config.empty()
                                                        ? PlaceRecognitionOptions()
                                                        : placeRecognitionOptionsFromConfig(options.offline_config);
-        const PlaceRecognitionResult pr = runPlaceRecognition(
-            in, pr_options, (fs::path(options.out_dir) / "place_recognition").string(), out);
+        const PlaceRecognitionResult pr =
+            runPlaceRecognition(in, pr_options, (fs::path(options.out_dir) / "place_recognition").string(), out);
         return pr.figures;
       });
   }
@@ -564,8 +570,10 @@ int runAblationCli(const std::vector<std::string>& args, std::ostream& out, std:
       if (m.empty()) continue;
       bool known = false;
       for (const auto& k : ablationModes()) known = known || k == m;
-      if (!known) throw UsageError("ablation: unknown mode '" + m + "' in --modes (expected a comma-separated subset of "
-                                   "vi_slam,no_sonar,no_alter,no_orb,no_geom,full)");
+      if (!known)
+        throw UsageError("ablation: unknown mode '" + m +
+                         "' in --modes (expected a comma-separated subset of "
+                         "vi_slam,no_sonar,no_alter,no_orb,no_geom,full)");
       o.modes.push_back(m);
     }
     if (o.modes.empty()) throw UsageError("ablation: --modes names no mode");

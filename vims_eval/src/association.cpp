@@ -94,8 +94,8 @@ std::optional<StampedPose> interpolatePose(const std::vector<StampedPose>& traj,
   if (traj.empty()) return std::nullopt;
   constexpr double kSameStamp = 1e-9;
   if (t < traj.front().t - kSameStamp || t > traj.back().t + kSameStamp) return std::nullopt;
-  const auto it = std::lower_bound(traj.begin(), traj.end(), t,
-                                   [](const StampedPose& p, double stamp) { return p.t < stamp; });
+  const auto it =
+      std::lower_bound(traj.begin(), traj.end(), t, [](const StampedPose& p, double stamp) { return p.t < stamp; });
   if (it != traj.end() && std::abs(it->t - t) <= kSameStamp) return *it;
   if (it == traj.begin()) return traj.front();  // within kSameStamp before the first sample
   if (it == traj.end()) return traj.back();     // within kSameStamp after the last sample

@@ -75,9 +75,10 @@ std::vector<StampedPose> readTrajectory(const std::string& path, const char* wha
 }
 
 int commandTraj(const std::vector<std::string>& argv, std::ostream& out) {
-  const CliArgs args(argv, 1, mergeOptions({kTrajectoryOptions, {{"gt", true}, {"est", true}, {"plots", true},
-                                                       {"label", true}, {"config", true}}}),
-                  "traj");
+  const CliArgs args(argv, 1,
+                     mergeOptions({kTrajectoryOptions,
+                                   {{"gt", true}, {"est", true}, {"plots", true}, {"label", true}, {"config", true}}}),
+                     "traj");
   const std::string gt_path = args.required("gt", "traj");
   const std::string est_path = args.required("est", "traj");
   const EvalOptions options = evalOptionsFromArgs(args);
@@ -93,8 +94,9 @@ int commandTraj(const std::vector<std::string>& argv, std::ostream& out) {
 }
 
 int commandLoops(const std::vector<std::string>& argv, std::ostream& out) {
-  const CliArgs args(argv, 1, mergeOptions({kLoopOptions, {{"gt", true}, {"loops", true}, {"plots", true}, {"config", true}}}),
-                  "loops");
+  const CliArgs args(argv, 1,
+                     mergeOptions({kLoopOptions, {{"gt", true}, {"loops", true}, {"plots", true}, {"config", true}}}),
+                     "loops");
   const std::string gt_path = args.required("gt", "loops");
   const std::string loops_path = args.required("loops", "loops");
   const EvalOptions options = evalOptionsFromArgs(args);
@@ -109,9 +111,9 @@ int commandLoops(const std::vector<std::string>& argv, std::ostream& out) {
 }
 
 int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const CliArgs args(argv, 1,
-                  mergeOptions({kTrajectoryOptions, kLoopOptions, {{"sequence", true}, {"out", true}, {"config", true}}}),
-                  "run");
+  const CliArgs args(
+      argv, 1, mergeOptions({kTrajectoryOptions, kLoopOptions, {{"sequence", true}, {"out", true}, {"config", true}}}),
+      "run");
   const std::string seq_dir = args.required("sequence", "run");
   const std::string out_dir = args.required("out", "run");
   const EvalOptions options = evalOptionsFromArgs(args);
@@ -267,7 +269,8 @@ int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ost
     if (command == "run") return commandRun(args, out, err);
     const auto extra = extra_commands.find(command);
     if (extra != extra_commands.end()) return extra->second(args, out, err);
-    throw UsageError("unknown command '" + command + "' (expected traj, loops, run, ablation, place-recognition or map-size)");
+    throw UsageError("unknown command '" + command +
+                     "' (expected traj, loops, run, ablation, place-recognition or map-size)");
   } catch (const UsageError& e) {
     err << "vims_eval: " << e.what() << "\n(see vims_eval --help)\n";
     return kExitUsage;

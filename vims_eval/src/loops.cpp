@@ -18,8 +18,9 @@ namespace vims {
 namespace eval {
 namespace {
 
-const std::array<const char*, 14> kColumns = {"t_query", "t_match", "accepted", "x", "y", "z", "qx", "qy",
-                                              "qz", "qw", "inliers", "mag_distance", "bow_score", "stage"};
+const std::array<const char*, 14> kColumns = {"t_query", "t_match",      "accepted",  "x",    "y",
+                                              "z",       "qx",           "qy",        "qz",   "qw",
+                                              "inliers", "mag_distance", "bow_score", "stage"};
 
 std::string trim(const std::string& s) {
   const auto first = s.find_first_not_of(" \t\r\n");

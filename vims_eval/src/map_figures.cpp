@@ -36,8 +36,8 @@ std::string defaultPackageRoot() { return VIMS_PACKAGE_ROOT; }
 LoadedMap loadSavedMap(const std::string& map_file, const std::string& descriptor, const std::string& package_root) {
   PoseGraphManagerOptions options;
   // The mode only selects which committed vocabulary is loaded (ORB for full, BRIEF for vi_slam).
-  options.mode = descriptorTypeFromString(descriptor) == DescriptorType::kOrb ? LoopClosingMode::kFull
-                                                                               : LoopClosingMode::kViSlam;
+  options.mode =
+      descriptorTypeFromString(descriptor) == DescriptorType::kOrb ? LoopClosingMode::kFull : LoopClosingMode::kViSlam;
   LoadedMap loaded;
   loaded.vocabulary = PoseGraphManager::loadVocabulary(options, package_root);
   loaded.map = std::make_unique<MultiScaleMap>(loaded.vocabulary, options.graph, 0.0);
@@ -66,8 +66,11 @@ std::string writeTrajectoryComparison(const std::vector<StampedPose>& gt,
     std::vector<double> ex, ey;
     for (const auto& p : ev.primary().est_aligned) ex.push_back(p.p.x()), ey.push_back(p.p.y());
     // tab10 colours 1 (orange) and 0 (blue): VI-SLAM first, VIMS second, as in the paper.
-    plot.addLine(ex, ey, plotColor(k == 0 ? 1 : k == 1 ? 0 : k), label + " (ATE " + fixed(ev.primary().ate.rmse, 3) + " m)",
-                 2);
+    plot.addLine(ex, ey,
+                 plotColor(k == 0   ? 1
+                           : k == 1 ? 0
+                                    : k),
+                 label + " (ATE " + fixed(ev.primary().ate.rmse, 3) + " m)", 2);
   }
   plot.addScatter({gx.front()}, {gy.front()}, plotColor(2), "start", 8, MarkerShape::kSquare);
   plot.savePng(png_path);

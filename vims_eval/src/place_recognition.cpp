@@ -1,8 +1,5 @@
 #include "vims_eval/place_recognition.h"
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,11 +8,14 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "vims_common/config_reader.h"
+#include "vims_common/magnetic_signature.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
 #include "vims_eval/ablation.h"
@@ -24,7 +24,6 @@
 #include "vims_eval/map_figures.h"
 #include "vims_eval/plot.h"
 #include "vims_eval/report.h"
-#include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;
@@ -107,11 +106,16 @@ std::optional<Eigen::Vector3d> nearestSignature(const std::vector<Signature>& si
 
 cv::Scalar outcomeColor(PairOutcome o) {
   switch (o) {
-    case PairOutcome::kTruePositive: return {44, 160, 44};    // green
-    case PairOutcome::kFalsePositive: return {40, 39, 214};   // red
-    case PairOutcome::kFalseNegative: return {14, 127, 255};  // orange
-    case PairOutcome::kTrueNegative: return {215, 215, 215};  // light grey
-    case PairOutcome::kExcluded: break;
+    case PairOutcome::kTruePositive:
+      return {44, 160, 44};  // green
+    case PairOutcome::kFalsePositive:
+      return {40, 39, 214};  // red
+    case PairOutcome::kFalseNegative:
+      return {14, 127, 255};  // orange
+    case PairOutcome::kTrueNegative:
+      return {215, 215, 215};  // light grey
+    case PairOutcome::kExcluded:
+      break;
   }
   return {255, 255, 255};
 }
@@ -119,11 +123,16 @@ cv::Scalar outcomeColor(PairOutcome o) {
 /// Display priority when a block of cells becomes one pixel.
 int outcomePriority(uint8_t o) {
   switch (static_cast<PairOutcome>(o)) {
-    case PairOutcome::kTruePositive: return 4;
-    case PairOutcome::kFalsePositive: return 3;
-    case PairOutcome::kFalseNegative: return 2;
-    case PairOutcome::kTrueNegative: return 1;
-    case PairOutcome::kExcluded: break;
+    case PairOutcome::kTruePositive:
+      return 4;
+    case PairOutcome::kFalsePositive:
+      return 3;
+    case PairOutcome::kFalseNegative:
+      return 2;
+    case PairOutcome::kTrueNegative:
+      return 1;
+    case PairOutcome::kExcluded:
+      break;
   }
   return 0;
 }
@@ -251,8 +260,8 @@ void writeOutcomeMatrixPng(const cv::Mat& outcomes, const std::string& title, co
   }
   cv::putText(canvas, "white: x < y + 50", cv::Point(left + side + 20, ly + 10), font, 0.45, ink, 1, cv::LINE_AA);
   if (block > 1)
-    cv::putText(canvas, "1 px = " + std::to_string(block) + "x" + std::to_string(block), cv::Point(left + side + 20, ly + 34),
-                font, 0.45, ink, 1, cv::LINE_AA);
+    cv::putText(canvas, "1 px = " + std::to_string(block) + "x" + std::to_string(block),
+                cv::Point(left + side + 20, ly + 34), font, 0.45, ink, 1, cv::LINE_AA);
   const fs::path parent = fs::path(png_path).parent_path();
   if (!parent.empty()) fs::create_directories(parent);
   if (!cv::imwrite(png_path, canvas)) throw std::runtime_error("cannot write '" + png_path + "'");
@@ -314,8 +323,8 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
   const auto& submaps = map.magneticSubmaps();
   std::vector<std::vector<PoseGraphNodeId>> clustered(submaps.size());
   for (std::size_t s = 0; s < submaps.size(); ++s)
-    clustered[s] = map.clusteredNodes(submaps[s], options.magnetic.cluster_margin_m,
-                                      MultiScaleMap::ClusterMembers::kBowVectors);
+    clustered[s] =
+        map.clusteredNodes(submaps[s], options.magnetic.cluster_margin_m, MultiScaleMap::ClusterMembers::kBowVectors);
 
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<uint8_t> truth;
@@ -333,7 +342,8 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
       for (std::size_t s = 0; s < submaps.size(); ++s) {
         if (!historical(x, submaps[s].tied_node)) continue;
         const double d = signatureDistance(*sig[x], submaps[s].signature_enu);
-        if (d <= options.loop.mag_distance_relative * submaps[s].signature_enu.norm() + options.loop.mag_distance_floor_tesla)
+        if (d <= options.loop.mag_distance_relative * submaps[s].signature_enu.norm() +
+                     options.loop.mag_distance_floor_tesla)
           passed.emplace_back(d, s);
       }
       std::sort(passed.begin(), passed.end());
@@ -393,8 +403,8 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
     for (const auto& p : curve.points) {
       rx.push_back(p.recall);
       py.push_back(p.precision);
-      curves_out << name << "," << precise(p.threshold) << "," << precise(p.precision) << "," << precise(p.recall) << ","
-                 << p.tp << "," << p.fp << "\n";
+      curves_out << name << "," << precise(p.threshold) << "," << precise(p.precision) << "," << precise(p.recall)
+                 << "," << p.tp << "," << p.fp << "\n";
     }
     plot.addLine(rx, py, plotColor(k), name + " (best F0.5 " + fixed(curve.best_f05, 3) + ")", 2);
     if (curve.best_f05 > 0.0)

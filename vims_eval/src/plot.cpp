@@ -23,9 +23,7 @@ constexpr double kTitleFontScale = 0.62;
 constexpr int kShift = 4;
 constexpr double kShiftScale = 1 << kShift;
 
-cv::Point toFixed(const cv::Point2d& p) {
-  return cv::Point(cvRound(p.x * kShiftScale), cvRound(p.y * kShiftScale));
-}
+cv::Point toFixed(const cv::Point2d& p) { return cv::Point(cvRound(p.x * kShiftScale), cvRound(p.y * kShiftScale)); }
 
 bool finite2(double x, double y) { return std::isfinite(x) && std::isfinite(y); }
 
@@ -125,8 +123,7 @@ void putVerticalText(cv::Mat& canvas, const std::string& text, cv::Point center,
   cv::Rect target(center.x - vertical.cols / 2, center.y - vertical.rows / 2, vertical.cols, vertical.rows);
   const cv::Rect clipped = target & cv::Rect(0, 0, canvas.cols, canvas.rows);
   if (clipped.area() == 0) return;
-  vertical(cv::Rect(clipped.x - target.x, clipped.y - target.y, clipped.width, clipped.height))
-      .copyTo(canvas(clipped));
+  vertical(cv::Rect(clipped.x - target.x, clipped.y - target.y, clipped.width, clipped.height)).copyTo(canvas(clipped));
 }
 
 cv::Scalar plotColor(std::size_t i) {
@@ -388,7 +385,8 @@ void Plot2D::drawHeatmap(cv::Mat& canvas, const Frame& frame) const {
   const cv::Rect bar(frame.area.x + frame.area.width + 14, frame.area.y, 16, frame.area.height);
   cv::Mat ramp(bar.height, 1, CV_8UC1);
   for (int v = 0; v < bar.height; ++v)
-    ramp.at<uchar>(v, 0) = static_cast<uchar>(std::lround(255.0 * (1.0 - static_cast<double>(v) / std::max(1, bar.height - 1))));
+    ramp.at<uchar>(v, 0) =
+        static_cast<uchar>(std::lround(255.0 * (1.0 - static_cast<double>(v) / std::max(1, bar.height - 1))));
   cv::Mat ramp_colored;
   cv::applyColorMap(ramp, ramp_colored, style.colormap);
   cv::resize(ramp_colored, canvas(bar), bar.size(), 0, 0, cv::INTER_NEAREST);
@@ -464,7 +462,8 @@ void Plot2D::drawSeries(cv::Mat& canvas, const Frame& frame) const {
   for (const auto& s : series_) {
     switch (s.kind) {
       case SeriesKind::kLine:
-        for (std::size_t i = 1; i < s.xs.size(); ++i) segment(s.xs[i - 1], s.ys[i - 1], s.xs[i], s.ys[i], s.color, s.size_px);
+        for (std::size_t i = 1; i < s.xs.size(); ++i)
+          segment(s.xs[i - 1], s.ys[i - 1], s.xs[i], s.ys[i], s.color, s.size_px);
         if (s.xs.size() == 1 && finite2(s.xs[0], s.ys[0]))
           drawMarker(area, frame.toLocal(s.xs[0], s.ys[0]), s.size_px, MarkerShape::kCircle, s.color);
         break;

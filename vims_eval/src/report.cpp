@@ -48,8 +48,8 @@ YAML::Node yamlNumber(double v) {
 YAML::Node statsNode(const ErrorStats& s) {
   YAML::Node node;
   node["count"] = s.count;
-  const std::pair<const char*, double> fields[] = {{"rmse", s.rmse},     {"mean", s.mean}, {"median", s.median},
-                                                   {"std", s.std},       {"min", s.min},   {"max", s.max}};
+  const std::pair<const char*, double> fields[] = {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median},
+                                                   {"std", s.std},   {"min", s.min},   {"max", s.max}};
   for (const auto& [key, value] : fields) {
     if (s.count > 0)
       node[key] = yamlNumber(value);
@@ -87,20 +87,19 @@ void printTrajectoryReport(std::ostream& out, const TrajectoryEvaluation& ev) {
                 ev.label.c_str(), a.size(), a.est_total, a.gt_total, a.max_abs_dt_s, ev.gt_distance_m, ev.duration_s);
   out << buf;
   const double delta = ev.primary().rpe.delta_m;
-  std::snprintf(buf, sizeof(buf), "   %-7s %9s %9s %9s %9s %8s %9s %9s %11s %9s %6s %9s\n", "align", "ATE rmse",
-                "mean", "median", "max", "%dist", "rot rmse", "rot max", "RPE trans", "RPE rot", "pairs", "scale");
+  std::snprintf(buf, sizeof(buf), "   %-7s %9s %9s %9s %9s %8s %9s %9s %11s %9s %6s %9s\n", "align", "ATE rmse", "mean",
+                "median", "max", "%dist", "rot rmse", "rot max", "RPE trans", "RPE rot", "pairs", "scale");
   out << buf;
   std::snprintf(buf, sizeof(buf), "   %-7s %9s %9s %9s %9s %8s %9s %9s %11s %9s %6s %9s\n", "", "[m]", "[m]", "[m]",
                 "[m]", "[%]", "[deg]", "[deg]", ("[m/" + num(delta, 0) + "m]").c_str(), "[deg]", "", "");
   out << buf;
   for (const auto& r : ev.results) {
-    std::snprintf(buf, sizeof(buf), "   %-7s %9s %9s %9s %9s %8s %9s %9s %11s %9s %6zu %9s\n",
-                  alignmentModeName(r.mode), num(r.ate.rmse, 4).c_str(), num(r.ate.mean, 4).c_str(),
-                  num(r.ate.median, 4).c_str(), num(r.ate.max, 4).c_str(), num(r.ate_rmse_pct, 3).c_str(),
-                  num(r.rot.rmse, 3).c_str(), num(r.rot.max, 3).c_str(),
-                  num(statOrNan(r.rpe.trans, r.rpe.trans.rmse), 4).c_str(),
-                  num(statOrNan(r.rpe.rot, r.rpe.rot.rmse), 3).c_str(), r.rpe.pairs.size(),
-                  num(r.S_w_v.scale, 5).c_str());
+    std::snprintf(
+        buf, sizeof(buf), "   %-7s %9s %9s %9s %9s %8s %9s %9s %11s %9s %6zu %9s\n", alignmentModeName(r.mode),
+        num(r.ate.rmse, 4).c_str(), num(r.ate.mean, 4).c_str(), num(r.ate.median, 4).c_str(), num(r.ate.max, 4).c_str(),
+        num(r.ate_rmse_pct, 3).c_str(), num(r.rot.rmse, 3).c_str(), num(r.rot.max, 3).c_str(),
+        num(statOrNan(r.rpe.trans, r.rpe.trans.rmse), 4).c_str(), num(statOrNan(r.rpe.rot, r.rpe.rot.rmse), 3).c_str(),
+        r.rpe.pairs.size(), num(r.S_w_v.scale, 5).c_str());
     out << buf;
   }
   if (ev.primary().rpe.pairs.empty())
@@ -225,8 +224,8 @@ std::vector<std::string> writeTrajectoryPlots(const TrajectoryEvaluation& ev, co
     for (const auto& p : ev.associated.est) ts.push_back(p.t - t0);
     for (std::size_t k = 0; k < ev.results.size(); ++k) {
       const auto& r = ev.results[k];
-      plot.addLine(ts, r.trans_errors_m, plotColor(k), std::string(alignmentModeName(r.mode)) + " (rmse " +
-                                                          num(r.ate.rmse, 3) + " m)", 1);
+      plot.addLine(ts, r.trans_errors_m, plotColor(k),
+                   std::string(alignmentModeName(r.mode)) + " (rmse " + num(r.ate.rmse, 3) + " m)", 1);
     }
     plot.setLegendLocation(LegendLocation::kTopLeft);
     const std::string path = (fs::path(dir) / (label + "_ate.png")).string();
@@ -245,7 +244,8 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
   const LoopScore& s = ev.score;
   char buf[512];
   std::snprintf(buf, sizeof(buf),
-                "== loops (correct: translation error <= %.3f m and rotation error <= %.2f deg of the ground truth's T_match_query)\n"
+                "== loops (correct: translation error <= %.3f m and rotation error <= %.2f deg of the ground truth's "
+                "T_match_query)\n"
                 "   verifications %zu, accepted %zu: correct %zu, wrong %zu, without ground truth %zu"
                 " (precision %.1f %%)\n"
                 "   rejected although within tolerance: %zu\n",
@@ -262,9 +262,9 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
   }
   for (const auto& l : s.loops) {
     if (!l.record.accepted || !l.has_gt || l.within_tolerance) continue;
-    std::snprintf(buf, sizeof(buf), "   wrong loop (line %d): t_query %.3f t_match %.3f error %.3f m %.2f deg stage '%s'\n",
-                  l.record.line, l.record.t_query, l.record.t_match, l.trans_error_m, l.rot_error_deg,
-                  l.record.stage.c_str());
+    std::snprintf(
+        buf, sizeof(buf), "   wrong loop (line %d): t_query %.3f t_match %.3f error %.3f m %.2f deg stage '%s'\n",
+        l.record.line, l.record.t_query, l.record.t_match, l.trans_error_m, l.rot_error_deg, l.record.stage.c_str());
     out << buf;
   }
   std::snprintf(buf, sizeof(buf),
@@ -274,8 +274,9 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
                 ev.revisits.closed, ev.revisits.closedPercent());
   out << buf;
   for (const auto& e : ev.events) {
-    std::snprintf(buf, sizeof(buf), "   [%.3f, %.3f] (%.1f s, earlier visit at %.3f, height %+.2f m, heading %.0f deg): %s\n",
-                  e.t_start, e.t_end, e.t_end - e.t_start, e.t_previous, e.height_change_m, e.heading_change_deg,
+    std::snprintf(buf, sizeof(buf),
+                  "   [%.3f, %.3f] (%.1f s, earlier visit at %.3f, height %+.2f m, heading %.0f deg): %s\n", e.t_start,
+                  e.t_end, e.t_end - e.t_start, e.t_previous, e.height_change_m, e.heading_change_deg,
                   e.closed ? "closed" : "missed");
     out << buf;
   }
@@ -397,8 +398,10 @@ std::vector<std::string> writeLoopPlots(const std::vector<StampedPose>& gt, cons
     x1.push_back(l.p_w_match_gt.x());
     y1.push_back(l.p_w_match_gt.y());
   }
-  if (!closed_x.empty()) plot.addScatter(closed_x, closed_y, plotColor(2), "event closed (start)", 7, MarkerShape::kSquare);
-  if (!missed_x.empty()) plot.addScatter(missed_x, missed_y, plotColor(3), "event missed (start)", 7, MarkerShape::kSquare);
+  if (!closed_x.empty())
+    plot.addScatter(closed_x, closed_y, plotColor(2), "event closed (start)", 7, MarkerShape::kSquare);
+  if (!missed_x.empty())
+    plot.addScatter(missed_x, missed_y, plotColor(3), "event missed (start)", 7, MarkerShape::kSquare);
   if (!cx0.empty()) {
     plot.addSegments(cx0, cy0, cx1, cy1, plotColor(2), "", 2);
     plot.addScatter(cx0, cy0, plotColor(2), "correct loop (query)", 4, MarkerShape::kCircle);

@@ -15,7 +15,9 @@ class HorizontalGrid {
  public:
   explicit HorizontalGrid(double cell_m) : cell_m_(cell_m) {}
 
-  void insert(const Eigen::Vector3d& p_w, std::size_t index) { cells_[key(cellOf(p_w.x()), cellOf(p_w.y()))].push_back(index); }
+  void insert(const Eigen::Vector3d& p_w, std::size_t index) {
+    cells_[key(cellOf(p_w.x()), cellOf(p_w.y()))].push_back(index);
+  }
 
   /// Any inserted index within radius_m (horizontally) of p_w, or nullopt.
   std::optional<std::size_t> findWithin(const Eigen::Vector3d& p_w, double radius_m,

@@ -149,8 +149,8 @@ TEST(Metrics, TiltErrorIsTheRollPitchPartOnly) {
   std::vector<StampedPose> yawed = gt, tilted = gt;
   const Eigen::Quaterniond yaw(Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()));
   const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.7 * M_PI / 180.0, Eigen::Vector3d(1, 2, 0).normalized()));
-  for (auto& p : yawed) p.q = yaw * p.q;      // a world-side yaw error: no tilt
-  for (auto& p : tilted) p.q = tilt * p.q;    // the vertical off by 0.7 deg
+  for (auto& p : yawed) p.q = yaw * p.q;    // a world-side yaw error: no tilt
+  for (auto& p : tilted) p.q = tilt * p.q;  // the vertical off by 0.7 deg
   for (double e : tiltErrorsDeg(gt, yawed)) EXPECT_NEAR(e, 0.0, 1e-9);
   for (double e : tiltErrorsDeg(gt, tilted)) EXPECT_NEAR(e, 0.7, 1e-9);
   EXPECT_NEAR(evaluateAligned(gt, tilted, AlignmentMode::kNone, 10.0).tilt.rmse, 0.7, 1e-9);

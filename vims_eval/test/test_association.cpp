@@ -55,7 +55,7 @@ TEST(Association, EachReferenceStampUsedOnceClosestWins) {
 
 TEST(Association, LongerEstimateIteratesOverGroundTruth) {
   std::vector<double> est_stamps, gt_stamps;
-  for (int i = 0; i <= 100; ++i) est_stamps.push_back(0.01 * i);  // 100 Hz
+  for (int i = 0; i <= 100; ++i) est_stamps.push_back(0.01 * i);       // 100 Hz
   for (int i = 0; i <= 10; ++i) gt_stamps.push_back(0.1 * i + 0.002);  // 10 Hz, 2 ms offset
   const auto a = associate(posesAt(gt_stamps), posesAt(est_stamps), AssociationOptions{});
   ASSERT_EQ(a.size(), 11u);

@@ -1,10 +1,9 @@
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-
-#include <yaml-cpp/yaml.h>
 
 #include "vims_common/trajectory_io.h"
 #include "vims_eval/cli.h"
@@ -101,8 +100,8 @@ TEST(Cli, TrajAndLoopsCommands) {
   EXPECT_EQ(missing.code, 1);
   EXPECT_NE(missing.err.find("nope.tum"), std::string::npos) << missing.err;
 
-  const CliResult traj = run({"traj", "--gt", (dir / "gt.tum").string(), "--est", (dir / "vio.tum").string(),
-                              "--plots", (dir / "plots").string()});
+  const CliResult traj = run({"traj", "--gt", (dir / "gt.tum").string(), "--est", (dir / "vio.tum").string(), "--plots",
+                              (dir / "plots").string()});
   ASSERT_EQ(traj.code, 0) << traj.err;
   const std::string last_line = traj.out.substr(traj.out.rfind("VIMS_EVAL "));
   EXPECT_EQ(last_line.find("VIMS_EVAL label=vio align=se3 poses=641 "), 0u) << last_line;
@@ -117,9 +116,8 @@ TEST(Cli, TrajAndLoopsCommands) {
                               "--max-dt", "0.005", "--align", "se3"});
   EXPECT_EQ(late.code, 1);
   EXPECT_NE(late.err.find("no estimate stamp matches"), std::string::npos) << late.err;
-  EXPECT_EQ(run({"traj", "--gt", (dir / "gt.tum").string(), "--est", (dir / "late.tum").string(), "--interpolate"})
-                .code,
-            0);
+  EXPECT_EQ(
+      run({"traj", "--gt", (dir / "gt.tum").string(), "--est", (dir / "late.tum").string(), "--interpolate"}).code, 0);
 
   writeLoops(dir / "loops.csv", gt);
   const CliResult loops = run({"loops", "--gt", (dir / "gt.tum").string(), "--loops", (dir / "loops.csv").string()});

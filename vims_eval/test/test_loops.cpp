@@ -51,7 +51,8 @@ Eigen::Isometry3d shifted(Eigen::Isometry3d T, const Eigen::Vector3d& dp) {
 }
 
 Eigen::Isometry3d rotated(Eigen::Isometry3d T, double angle_deg) {
-  T.linear() = T.linear() * Eigen::AngleAxisd(angle_deg * kDeg, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  T.linear() =
+      T.linear() * Eigen::AngleAxisd(angle_deg * kDeg, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
   return T;
 }
 
@@ -78,14 +79,14 @@ TEST(LoopScoring, CorrectAndWrongByTranslationAndRotationTolerance) {
   // t_query 50.05 lies between ground-truth samples: the truth is interpolated.
   const Eigen::Isometry3d T = trueRelative(50.05, 10.0);
   const std::vector<LoopRecord> records = {
-      loop(50.05, 10.0, true, T),                                          // exact: correct
+      loop(50.05, 10.0, true, T),                                            // exact: correct
       loop(50.05, 10.0, true, shifted(T, Eigen::Vector3d(0.3, 0.0, 0.25))),  // 0.39 m: correct
       loop(50.05, 10.0, true, shifted(T, Eigen::Vector3d(0.0, 0.6, 0.0))),   // 0.6 m: wrong
-      loop(50.05, 10.0, true, rotated(T, 4.0)),                            // 4 deg: correct
-      loop(50.05, 10.0, true, rotated(T, 6.0)),                            // 6 deg: wrong
-      loop(50.05, 10.0, false, T),                                         // rejected, but right
-      loop(50.05, 10.0, false, rotated(T, 30.0)),                          // rejected and wrong
-      loop(150.0, 10.0, true, T),                                          // no ground truth at t_query
+      loop(50.05, 10.0, true, rotated(T, 4.0)),                              // 4 deg: correct
+      loop(50.05, 10.0, true, rotated(T, 6.0)),                              // 6 deg: wrong
+      loop(50.05, 10.0, false, T),                                           // rejected, but right
+      loop(50.05, 10.0, false, rotated(T, 30.0)),                            // rejected and wrong
+      loop(150.0, 10.0, true, T),                                            // no ground truth at t_query
   };
   const LoopScore score = scoreLoops(records, gt, LoopScoringOptions{});
   EXPECT_EQ(score.verifications, 8u);
@@ -133,8 +134,9 @@ TEST(LoopCsv, ParsesRowsInAnyColumnOrder) {
   EXPECT_TRUE(std::isnan(records[1].mag_distance));
   EXPECT_TRUE(std::isnan(records[1].bow_score));
 
-  const auto reordered = parse("stage,qw,qx,qy,qz,x,y,z,t_match,t_query,accepted,inliers,bow_score,mag_distance,extra\n"
-                               "pnp,1,0,0,0,3,4,5,1,2,1,10,0.5,0.1,ignored\n");
+  const auto reordered = parse(
+      "stage,qw,qx,qy,qz,x,y,z,t_match,t_query,accepted,inliers,bow_score,mag_distance,extra\n"
+      "pnp,1,0,0,0,3,4,5,1,2,1,10,0.5,0.1,ignored\n");
   ASSERT_EQ(reordered.size(), 1u);
   EXPECT_DOUBLE_EQ(reordered[0].t_query, 2.0);
   EXPECT_DOUBLE_EQ(reordered[0].T_match_query.translation().z(), 5.0);
@@ -149,7 +151,8 @@ TEST(LoopCsv, ReportsErrorsWithLineNumbers) {
                    "loops.csv:3: column 'y': 'abc' is not a number");
   expectParseError(std::string(kHeader) + "1,2,maybe,0,0,0,0,0,0,1,5,0.1,0.2,s\n", "loops.csv:2: column 'accepted'");
   expectParseError(std::string(kHeader) + "1,2,1,0,0,0,0,0,0,0,5,0.1,0.2,s\n", "loops.csv:2: zero quaternion");
-  expectParseError(std::string(kHeader) + "1,2,1,0,0,nan,0,0,0,1,5,0.1,0.2,s\n", "loops.csv:2: column 'z': value must be finite");
+  expectParseError(std::string(kHeader) + "1,2,1,0,0,nan,0,0,0,1,5,0.1,0.2,s\n",
+                   "loops.csv:2: column 'z': value must be finite");
   expectParseError(std::string(kHeader) + "1,2,1,0,0,0,0,0,0,1,5.5,0.1,0.2,s\n", "loops.csv:2: column 'inliers'");
   expectParseError("", "no header row");
   EXPECT_THROW(readLoopCsv("/nonexistent/loops.csv"), std::runtime_error);

@@ -58,9 +58,9 @@ TEST(Plot, TopViewWrittenAndReadBack) {
   ASSERT_FALSE(image.empty());
   EXPECT_EQ(image.cols, 640);
   EXPECT_EQ(image.rows, 480);
-  EXPECT_GT(countNonWhite(image), 2000);              // axes, ticks, text, curve
-  EXPECT_GT(countColor(image, plotColor(3)), 300);    // the red ellipse is drawn
-  EXPECT_GT(countColor(image, plotColor(2)), 50);     // the green start marker
+  EXPECT_GT(countNonWhite(image), 2000);            // axes, ticks, text, curve
+  EXPECT_GT(countColor(image, plotColor(3)), 300);  // the red ellipse is drawn
+  EXPECT_GT(countColor(image, plotColor(2)), 50);   // the green start marker
   // Equal aspect: the ellipse's pixel width / height is its data ratio 10 / 3.
   int min_c = image.cols, max_c = 0, min_r = image.rows, max_r = 0;
   const cv::Scalar red = plotColor(3);

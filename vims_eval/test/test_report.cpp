@@ -103,8 +103,8 @@ TEST(Report, LoopAccuracyOfTheAcceptedLoopsWithGroundTruth) {
     score.loops.push_back(l);
   };
   for (int i = 1; i <= 11; ++i) add(true, true, 0.001 * i, 0.01 * i);  // 1..11 mm
-  add(false, true, 5.0, 50.0);  // rejected: not an edge
-  add(true, false, 5.0, 50.0);  // no ground truth: not scored
+  add(false, true, 5.0, 50.0);                                         // rejected: not an edge
+  add(true, false, 5.0, 50.0);                                         // no ground truth: not scored
   const LoopAccuracy a = loopAccuracy(score);
   EXPECT_EQ(a.loops, 11u);
   EXPECT_NEAR(a.trans_error_median_m, 0.006, 1e-12);

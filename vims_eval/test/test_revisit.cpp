@@ -35,7 +35,8 @@ LoopRecord loopAt(const std::vector<StampedPose>& gt, double t_query, double t_m
   r.t_match = t_match;
   r.accepted = true;
   r.T_match_query = Eigen::Isometry3d::Identity();
-  r.T_match_query.translation() = m->q.conjugate() * (q->p - m->p) + (correct ? Eigen::Vector3d::Zero() : Eigen::Vector3d(3, 0, 0));
+  r.T_match_query.translation() =
+      m->q.conjugate() * (q->p - m->p) + (correct ? Eigen::Vector3d::Zero() : Eigen::Vector3d(3, 0, 0));
   r.T_match_query.linear() = (m->q.conjugate() * q->q).toRotationMatrix();
   return r;
 }

@@ -77,8 +77,8 @@ void AttitudeFilter::feedImu(const ImuSample& s) {
     return;
   }
   if (have_last_imu_ && s.t < last_imu_t_) {
-    logger_->warn(kComponent, VIMS_STR("IMU clock went backwards by " << (last_imu_t_ - s.t)
-                                                                       << " s; resetting the attitude"));
+    logger_->warn(kComponent,
+                  VIMS_STR("IMU clock went backwards by " << (last_imu_t_ - s.t) << " s; resetting the attitude"));
     reset();
   } else if (have_last_imu_ && s.t == last_imu_t_) {
     logger_->warnThrottled(kComponent, "duplicate", s.t, 5.0, "duplicate IMU stamp ignored");
@@ -142,8 +142,9 @@ void AttitudeFilter::tryInitialize() {
   for (const ImuSample& s : imu_buffer_) {
     if (s.t > t_g) propagate(s);
   }
-  logger_->info(kComponent, VIMS_STR("attitude initialised at t=" << std::fixed << t_g << " from gravity and the "
-                                                                   "geomagnetic field"));
+  logger_->info(kComponent, VIMS_STR("attitude initialised at t=" << std::fixed << t_g
+                                                                  << " from gravity and the "
+                                                                     "geomagnetic field"));
 }
 
 std::optional<Eigen::Quaterniond> AttitudeFilter::attitudeAt(double t) const {
@@ -153,8 +154,8 @@ std::optional<Eigen::Quaterniond> AttitudeFilter::attitudeAt(double t) const {
     return history_.back().q_w_b;
   }
   if (t < history_.front().t) return std::nullopt;
-  const auto upper = std::upper_bound(history_.begin(), history_.end(), t,
-                                      [](double value, const Entry& e) { return value < e.t; });
+  const auto upper =
+      std::upper_bound(history_.begin(), history_.end(), t, [](double value, const Entry& e) { return value < e.t; });
   const Entry& b = *upper;
   const Entry& a = *(upper - 1);
   const double alpha = (t - a.t) / (b.t - a.t);

@@ -73,7 +73,8 @@ class MagnetometerNode {
     imu_sub_ = nh.subscribe(imu_topic, 400, &MagnetometerNode::onImu, this, ros::TransportHints().tcpNoDelay());
     ROS_INFO_STREAM("magnetometer: " << mag_sub_.getTopic() << " + " << imu_sub_.getTopic() << " -> "
                                      << signature_pub_.getTopic() << ", " << geomagnetic_pub_.getTopic()
-                                     << "; options:\n" << options.toYaml());
+                                     << "; options:\n"
+                                     << options.toYaml());
   }
 
  private:
@@ -120,7 +121,8 @@ class MagnetometerNode {
       finite = zeroNonFinite(&s.snr) && finite;
       finite = zeroNonFinite(&s.frequency_hz) && finite;
       if (!finite) {
-        ROS_WARN_STREAM_THROTTLE(5.0, "signature window at t=" << s.t << " has non-finite values: published as invalid");
+        ROS_WARN_STREAM_THROTTLE(5.0,
+                                 "signature window at t=" << s.t << " has non-finite values: published as invalid");
         s.valid = false;
       }
       vims::MagneticSignature out;

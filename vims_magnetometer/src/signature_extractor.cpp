@@ -36,8 +36,8 @@ SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const
                 // attitudeAt() must reach back to the centre of the moving average, plus margin.
                 0.5 * options.geomagnetic_min_periods * 4.0 / calibration.coil_frequency_hz + 1.0, logger_) {
   options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
-  moving_average_ = chooseMovingAverage(calibration_.rate_hz, calibration_.coil_frequency_hz,
-                                        options_.geomagnetic_min_periods);
+  moving_average_ =
+      chooseMovingAverage(calibration_.rate_hz, calibration_.coil_frequency_hz, options_.geomagnetic_min_periods);
   window_samples_ = static_cast<int>(std::lround(options_.window_s * calibration_.rate_hz));
   hop_samples_ = std::max(1, static_cast<int>(std::lround(options_.hop_s * calibration_.rate_hz)));
   // Periodic Hann window: its sidelobes fall as 1/f^3, so the slow residual of the geomagnetic
@@ -55,11 +55,10 @@ SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const
   }
   raw_.resize(moving_average_.samples);
   alt_.resize(window_samples_);
-  logger_->info(kComponent,
-                VIMS_STR("geomagnetic moving average: " << moving_average_.samples << " samples = "
-                                                        << moving_average_.periods << " coil periods (residual "
-                                                        << moving_average_.residual << " samples); window "
-                                                        << window_samples_ << " samples, hop " << hop_samples_));
+  logger_->info(kComponent, VIMS_STR("geomagnetic moving average: "
+                                     << moving_average_.samples << " samples = " << moving_average_.periods
+                                     << " coil periods (residual " << moving_average_.residual << " samples); window "
+                                     << window_samples_ << " samples, hop " << hop_samples_));
 }
 
 void SignatureExtractor::reset() {
@@ -85,8 +84,8 @@ void SignatureExtractor::feedMag(const MagSample& sample, std::vector<SignatureW
   if (have_last_t_) {
     const double dt = t - last_t_;
     if (dt < -0.5 * dt_nominal) {
-      logger_->warn(kComponent, VIMS_STR("magnetometer clock went backwards by " << -dt
-                                                                                  << " s; restarting the pipeline"));
+      logger_->warn(kComponent,
+                    VIMS_STR("magnetometer clock went backwards by " << -dt << " s; restarting the pipeline"));
       ++stats_.resets;
       reset();
     } else {
@@ -154,8 +153,7 @@ void SignatureExtractor::pushRaw(double t, const Eigen::Vector3d& B_m, unsigned 
     alt.B_geo_b = R_b_m_ * mean_m;
     attitude_.feedGeomagnetic(centre.t, alt.B_geo_b);
     const double period = options_.geomagnetic_output_period_s;
-    if (!have_geomagnetic_output_ ||
-        centre.t - last_geomagnetic_output_t_ >= period - 0.5 / calibration_.rate_hz) {
+    if (!have_geomagnetic_output_ || centre.t - last_geomagnetic_output_t_ >= period - 0.5 / calibration_.rate_hz) {
       have_geomagnetic_output_ = true;
       last_geomagnetic_output_t_ = centre.t;
       if (geomagnetic) {

@@ -23,7 +23,9 @@ struct Motion {
 inline Motion circle(const Eigen::Vector3d& centre, double r, double v, double roll_deg = 2.0, double pitch_deg = 3.0) {
   Motion m;
   const double w = v / r;
-  m.p_w_b = [=](double t) { return Eigen::Vector3d(centre + r * Eigen::Vector3d(std::cos(w * t), std::sin(w * t), 0)); };
+  m.p_w_b = [=](double t) {
+    return Eigen::Vector3d(centre + r * Eigen::Vector3d(std::cos(w * t), std::sin(w * t), 0));
+  };
   m.q_w_b = [=](double t) {
     const double yaw = w * t + M_PI / 2;
     const double pitch = pitch_deg * M_PI / 180 * std::sin(0.5 * t);
@@ -48,12 +50,12 @@ inline Motion turnInPlace(const Eigen::Vector3d& p, double yaw0, double yaw_rate
 
 struct World {
   Eigen::Vector3d coil_w{0.0, 0.0, 0.0};
-  double coil_moment = 270.0;     // peak dipole moment along +z [A m^2]
-  double coil_frequency = 11.0;   // [Hz]
-  double coil_phase = 0.4;        // [rad]
+  double coil_moment = 270.0;    // peak dipole moment along +z [A m^2]
+  double coil_frequency = 11.0;  // [Hz]
+  double coil_phase = 0.4;       // [rad]
   double declination_deg = 5.0;
   double inclination_deg = 46.0;
-  double total_field = 49e-6;     // [T]
+  double total_field = 49e-6;  // [T]
   double gravity = 9.81;
 
   Eigen::Vector3d geomagneticEnu() const {
@@ -78,8 +80,7 @@ struct Streams {
 
 /// IMU at 200 Hz and magnetometer at 1000 Hz from t0 to t0 + duration. T_b_m rotates the mag frame.
 inline Streams generate(const Motion& motion, const World& world, double t0, double duration,
-                        const Eigen::Matrix3d& R_b_m, double mag_noise, double gyro_bias = 0.0,
-                        unsigned seed = 1) {
+                        const Eigen::Matrix3d& R_b_m, double mag_noise, double gyro_bias = 0.0, unsigned seed = 1) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> unit(0.0, 1.0);
   Streams s;
@@ -92,8 +93,7 @@ inline Streams generate(const Motion& motion, const World& world, double t0, dou
     imu.t = t0 + tau;
     imu.gyro = delta.axis() * delta.angle() / (2 * h) + Eigen::Vector3d::Constant(gyro_bias) +
                Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 1e-3;
-    const Eigen::Vector3d a_w =
-        (motion.p_w_b(tau + h) - 2 * motion.p_w_b(tau) + motion.p_w_b(tau - h)) / (h * h);
+    const Eigen::Vector3d a_w = (motion.p_w_b(tau + h) - 2 * motion.p_w_b(tau) + motion.p_w_b(tau - h)) / (h * h);
     imu.accel = motion.q_w_b(tau).conjugate() * (a_w + Eigen::Vector3d(0, 0, world.gravity)) +
                 Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 0.02;
     s.imu.push_back(imu);
@@ -106,7 +106,8 @@ inline Streams generate(const Motion& motion, const World& world, double t0, dou
         B_e + world.coilPeak(motion.p_w_b(tau)) * std::sin(2 * M_PI * world.coil_frequency * tau + world.coil_phase);
     vims::MagSample mag;
     mag.t = t0 + tau;
-    mag.field = R_b_m.transpose() * R_w_b.transpose() * B_w + Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * mag_noise;
+    mag.field =
+        R_b_m.transpose() * R_w_b.transpose() * B_w + Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * mag_noise;
     s.mag.push_back(mag);
   }
   return s;

@@ -63,4 +63,3 @@ TEST(MagnetometerOptions, ExtractorRejectsOptionsThatDoNotFitTheSensor) {
   o.hop_s = 0.1;
   EXPECT_THROW(SignatureExtractor(o, MagnetometerCalibration{}, 9.81), ConfigError);
 }
-

@@ -8,6 +8,7 @@
 
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
+#include "vims_common/timing.h"
 #include "vims_common/trajectory_io.h"
 #include "vims_magnetometer/signature_csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
@@ -16,7 +17,6 @@
 #include "vims_sim/sim_truth.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
-#include "vims_common/timing.h"
 
 namespace vims {
 namespace frontend_eval {
@@ -76,8 +76,8 @@ std::string SonarEvaluation::summaryLine() const {
   return "VIMS_SONAR samples=" + std::to_string(samples) + " dropouts=" + std::to_string(dropouts) +
          " outliers=" + std::to_string(outliers) + " rejected=" + std::to_string(outliers_rejected) +
          " rejected_pct=" + fmt(rejectedPct(), 2) + " good=" + std::to_string(good) +
-         " lost=" + std::to_string(good_lost) + " lost_pct=" + fmt(lostPct(), 2) +
-         " resets=" + std::to_string(resets) + " filtered_rmse_m=" + fmt(filtered_rmse_m, 4);
+         " lost=" + std::to_string(good_lost) + " lost_pct=" + fmt(lostPct(), 2) + " resets=" + std::to_string(resets) +
+         " filtered_rmse_m=" + fmt(filtered_rmse_m, 4);
 }
 
 std::string MagEvaluation::summaryLine() const {
@@ -113,8 +113,8 @@ SonarEvaluation evaluateSonar(const std::string& sequence_dir, const SonarFilter
   for (const SonarFilterResult& r : results) {
     if (csv) csv->write(r);
     ++ev.samples;
-    const bool in_range = std::isfinite(r.raw) && r.raw >= seq.config.sonar.min_range &&
-                          r.raw <= seq.config.sonar.max_range;
+    const bool in_range =
+        std::isfinite(r.raw) && r.raw >= seq.config.sonar.min_range && r.raw <= seq.config.sonar.max_range;
     if (!in_range) {
       ++ev.dropouts;
       continue;

@@ -28,13 +28,13 @@ namespace vims {
 namespace frontend_eval {
 
 struct SonarEvaluation {
-  long samples = 0;         ///< sonar samples read
-  long no_truth = 0;        ///< outside the ground truth's time span (not scored)
-  long dropouts = 0;        ///< +inf / out of range raw values
-  long outliers = 0;        ///< injected outliers (> 5 sigma from the true range)
+  long samples = 0;   ///< sonar samples read
+  long no_truth = 0;  ///< outside the ground truth's time span (not scored)
+  long dropouts = 0;  ///< +inf / out of range raw values
+  long outliers = 0;  ///< injected outliers (> 5 sigma from the true range)
   long outliers_rejected = 0;
-  long good = 0;            ///< within 5 sigma of the true range
-  long good_lost = 0;       ///< good samples the filter did not accept
+  long good = 0;       ///< within 5 sigma of the true range
+  long good_lost = 0;  ///< good samples the filter did not accept
   long resets = 0;
   double filtered_rmse_m = 0.0;  ///< filtered range of accepted samples vs truth
   double rejectedPct() const { return outliers > 0 ? 100.0 * outliers_rejected / outliers : 100.0; }
@@ -44,7 +44,7 @@ struct SonarEvaluation {
 };
 
 struct MagEvaluationOptions {
-  double min_amplitude_t = 20e-9;     ///< windows whose true amplitude is below this are not scored
+  double min_amplitude_t = 20e-9;  ///< windows whose true amplitude is below this are not scored
   double pair_radius_m = 0.5;
   double pair_min_heading_deg = 45.0;
 };
@@ -52,12 +52,12 @@ struct MagEvaluationOptions {
 struct MagEvaluation {
   long windows = 0;
   long valid_windows = 0;
-  long scored = 0;                 ///< valid, with truth and |g| >= min_amplitude_t
+  long scored = 0;  ///< valid, with truth and |g| >= min_amplitude_t
   double median_rel_err_pct = 0.0;
   double p90_rel_err_pct = 0.0;
   long heading_pairs = 0;
-  double heading_median_rel_diff_pct = 0.0;      ///< compensated for the field change (see above)
-  double heading_median_raw_diff_pct = 0.0;      ///< |s_i - s_j| / mean |g|
+  double heading_median_rel_diff_pct = 0.0;  ///< compensated for the field change (see above)
+  double heading_median_raw_diff_pct = 0.0;  ///< |s_i - s_j| / mean |g|
   double median_snr = 0.0;
   /// "VIMS_MAG windows=.. valid=.. scored=.. median_rel_err_pct=.. heading_pairs=.. ..."
   std::string summaryLine() const;

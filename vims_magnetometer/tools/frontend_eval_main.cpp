@@ -70,9 +70,10 @@ int main(int argc, char** argv) {
   const vims::LoggerPtr logger = vims::Logger::stderrLogger(verbose ? vims::LogLevel::kInfo : vims::LogLevel::kError);
   try {
     if (command == "sonar") {
-      const auto options = options_path.empty()
-                               ? vims::SonarFilterOptions{}
-                               : vims::SonarFilterOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("sonar"));
+      const auto options =
+          options_path.empty()
+              ? vims::SonarFilterOptions{}
+              : vims::SonarFilterOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("sonar"));
       const auto ev = vims::frontend_eval::evaluateSonar(sequence, options, logger, csv_path);
       std::printf("sonar filter on %s\n", sequence.c_str());
       std::printf("  samples %ld (dropouts %ld, without ground truth %ld)\n", ev.samples, ev.dropouts, ev.no_truth);
@@ -82,9 +83,10 @@ int main(int argc, char** argv) {
       std::printf("  resets %ld, filtered range RMSE %.4f m\n", ev.resets, ev.filtered_rmse_m);
       std::printf("%s\n", ev.summaryLine().c_str());
     } else {
-      const auto options = options_path.empty()
-                               ? vims::MagnetometerOptions{}
-                               : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("magnetometer"));
+      const auto options =
+          options_path.empty()
+              ? vims::MagnetometerOptions{}
+              : vims::MagnetometerOptions::fromReader(vims::ConfigReader::fromFile(options_path).child("magnetometer"));
       const vims::frontend_eval::MagEvaluationOptions eval_options;
       const auto ev = vims::frontend_eval::evaluateMagnetometer(sequence, options, eval_options, logger, csv_path);
       std::printf("magnetic signatures on %s\n", sequence.c_str());
@@ -92,10 +94,11 @@ int main(int argc, char** argv) {
                   ev.valid_windows, eval_options.min_amplitude_t * 1e9, ev.scored, ev.median_snr);
       std::printf("  relative amplitude error: median %.2f %%, 90th percentile %.2f %%\n", ev.median_rel_err_pct,
                   ev.p90_rel_err_pct);
-      std::printf("  same spot (< %.1f m), heading differing by > %.0f deg: %ld pairs, median difference beyond the "
-                  "field change %.2f %% (raw difference %.2f %%)\n",
-                  eval_options.pair_radius_m, eval_options.pair_min_heading_deg, ev.heading_pairs,
-                  ev.heading_median_rel_diff_pct, ev.heading_median_raw_diff_pct);
+      std::printf(
+          "  same spot (< %.1f m), heading differing by > %.0f deg: %ld pairs, median difference beyond the "
+          "field change %.2f %% (raw difference %.2f %%)\n",
+          eval_options.pair_radius_m, eval_options.pair_min_heading_deg, ev.heading_pairs,
+          ev.heading_median_rel_diff_pct, ev.heading_median_raw_diff_pct);
       std::printf("%s\n", ev.summaryLine().c_str());
     }
   } catch (const std::exception& e) {

@@ -1,5 +1,9 @@
 #include "offline_pipeline.h"
 
+#include <malloc.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,9 +19,6 @@
 #include <mutex>
 #include <numeric>
 #include <optional>
-#include <malloc.h>
-#include <sys/resource.h>
-#include <unistd.h>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/timing.h"
@@ -53,7 +54,6 @@ class ProgressPrinter {
 };
 
 using Clock = std::chrono::steady_clock;
-
 
 }  // namespace
 
@@ -127,7 +127,8 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   paths_ = SequencePaths::resolve(options_.sequence_dir);
   std::vector<std::string> unknown;
   sequence_ = SequenceConfig::load(paths_.yaml, &unknown);
-  for (const auto& key : unknown) logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
+  for (const auto& key : unknown)
+    logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
   config_ = SystemConfig::load(options_.config_paths, sequence_);
   config_.applyMode(options_.mode);
   // The offline runner must be deterministic: the pose graph works inline in the feed calls.
@@ -289,8 +290,9 @@ void OfflinePipeline::onMag(const MagSample& sample) {
   }
   for (const auto& geomagnetic : geomagnetic_samples_) {
     if (!pose_graph_) break;
-    pose_graph_worker_->submit(
-        [this, geomagnetic] { timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); }); });
+    pose_graph_worker_->submit([this, geomagnetic] {
+      timePoseGraph(false, [&] { pose_graph_->feedGeomagnetic(geomagnetic.t, geomagnetic.field_b); });
+    });
   }
 }
 
@@ -430,12 +432,11 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
-      << ", culled_submaps: " << pg.culled_submaps
-      << ", sessions: " << pg.sessions << ", loop_queries: " << pg.loop_queries
-      << ", loop_attempts: " << pg.loop_attempts << ", loops_accepted: " << pg.loops_accepted
-      << ", yaw_factors: " << pg.yaw_factors << ", magnetic_submaps: " << pg.magnetic_submaps
-      << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false")
-      << "}\n";
+      << ", culled_submaps: " << pg.culled_submaps << ", sessions: " << pg.sessions
+      << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
+      << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
+      << ", magnetic_submaps: " << pg.magnetic_submaps << ", optimisations: " << pg.optimisations
+      << ", relocalised: " << (pg.relocalised ? "true" : "false") << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99
       << ", magnetometer_p50: " << s.magnetometer_ms_p50 << ", magnetometer_p99: " << s.magnetometer_ms_p99

@@ -8,29 +8,28 @@
 /// single-threaded and driven only by bag data, is deterministic: two runs give identical files.
 
 #include <exception>
-#include <map>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 
+#include "serial_worker.h"
 #include "vims_common/heap.h"
 #include "vims_common/latency_histogram.h"
 #include "vims_common/log.h"
+#include "vims_common/sensor_data.h"
+#include "vims_common/sequence_config.h"
+#include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
 #include "vims_magnetometer/signature_csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/pose_graph_manager.h"
+#include "vims_ros/sequence_bag_reader.h"
 #include "vims_sonar/sonar_altitude_filter.h"
 #include "vims_sonar/sonar_csv_writer.h"
-#include "vims_common/sensor_data.h"
-#include "vims_common/sequence_config.h"
-#include "vims_common/sequence_paths.h"
-#include "vims_ros/sequence_bag_reader.h"
 #include "vims_system/system_config.h"
 #include "vims_system/vio_system.h"
-
-#include "serial_worker.h"
 
 namespace vims {
 
@@ -86,15 +85,15 @@ struct OfflineSummary {
   /// CPU time of the front end (tracker thread) and back end (estimator calls) [s], and
   /// sequence_duration_s over their sum: the VIO's cost, independent of other load on the machine.
   double frontend_cpu_s = 0.0, backend_cpu_s = 0.0, vio_cpu_real_time_factor = 0.0;
-  double peak_rss_mb = 0.0;  ///< getrusage ru_maxrss at the end of the run
+  double peak_rss_mb = 0.0;            ///< getrusage ru_maxrss at the end of the run
   double heap_in_use_mb = 0.0;         ///< mallinfo2 uordblks + hblkhd at the end of the run
   double heap_free_retained_mb = 0.0;  ///< mallinfo2 fordblks: freed, still held by the allocator
   int threads = 1;
-  long vio_frames = 0;        ///< poses written to vio.tum
+  long vio_frames = 0;  ///< poses written to vio.tum
   long vio_keyframes = 0;
   long vio_resets = 0;
   std::uint32_t vio_sessions = 0;
-  double vio_td_s = 0.0;      ///< final camera-IMU time offset estimate
+  double vio_td_s = 0.0;  ///< final camera-IMU time offset estimate
   PoseGraphManagerStats pose_graph;
 };
 
@@ -121,8 +120,8 @@ class OfflinePipeline {
   struct TrackedResult {
     CameraFrame frame;
     TrackedFrame tracked;
-    double ms = 0.0;     ///< wall time of FeatureTracker::process
-    double cpu_s = 0.0;  ///< its CPU time
+    double ms = 0.0;           ///< wall time of FeatureTracker::process
+    double cpu_s = 0.0;        ///< its CPU time
     std::exception_ptr error;  ///< what the tracker threw on this frame
   };
   void feedTracked(const TrackedResult& tracked);
@@ -145,7 +144,7 @@ class OfflinePipeline {
   std::unique_ptr<SignatureExtractor> signature_extractor_;
   std::unique_ptr<SonarCsvWriter> sonar_csv_;
   std::unique_ptr<SignatureCsvWriter> signature_csv_;
-  std::vector<SonarFilterResult> sonar_results_;       // reused buffers: no allocation per message
+  std::vector<SonarFilterResult> sonar_results_;  // reused buffers: no allocation per message
   // Visual-inertial(-sonar) odometry; its tracking runs on tracker_worker_.
   std::unique_ptr<VioSystem> vio_;
   class TrackerWorker;

@@ -102,8 +102,8 @@ class SerialWorker {
   std::deque<std::function<void()>> tasks_;
   bool running_ = false;
   bool stop_ = false;
-  bool failed_ = false;            ///< an error was rethrown: drop what is still queued
-  std::exception_ptr error_;       ///< thrown by a task, not yet rethrown
+  bool failed_ = false;       ///< an error was rethrown: drop what is still queued
+  std::exception_ptr error_;  ///< thrown by a task, not yet rethrown
 };
 
 }  // namespace vims

@@ -68,7 +68,9 @@ TEST(OfflineVio, PoseGraphModesWriteGlobalTrajectoryAndLoopLog) {
     std::ifstream loops(out / "loops.csv");
     std::string header;
     std::getline(loops, header);
-    EXPECT_EQ(header, "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,sigma_yaw_deg");
+    EXPECT_EQ(header,
+              "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,"
+              "sigma_yaw_deg");
     long rows = 0;
     for (std::string line; std::getline(loops, line);) rows += line.empty() ? 0 : 1;
     EXPECT_EQ(rows, summary["pose_graph"]["loop_attempts"].as<long>()) << mode;
@@ -108,8 +110,8 @@ TEST(OfflineVio, WorkerThreadsGiveIdenticalOutputs) {
     EXPECT_FALSE(one.empty()) << file;
     EXPECT_TRUE(one == fileContents(outs[1] / file)) << file << " differs between --threads 1 and 2";
   }
-  const CommandResult bad = runCommand(offlineBinary() + " --threads 3 --sequence x --out " +
-                                       freshDir("offline_vio_badthreads").string());
+  const CommandResult bad =
+      runCommand(offlineBinary() + " --threads 3 --sequence x --out " + freshDir("offline_vio_badthreads").string());
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
 }
 
@@ -133,16 +135,16 @@ TEST(OfflineVio, VioOnlyGivesTheFullRunsOdometry) {
   EXPECT_TRUE(summary["vio_only"].as<bool>());
   EXPECT_EQ(summary["pose_graph"]["keyframes"].as<int>(), 0);
   EXPECT_GT(summary["vio"]["keyframes"].as<int>(), 0);
-  const CommandResult with_map = runCommand(offlineBinary() + " --quiet --vio-only --map-save " +
-                                            (vio / "m.vimsmap").string() + " --sequence " + seq + " --out " +
-                                            freshDir("offline_vio_only_map").string());
+  const CommandResult with_map =
+      runCommand(offlineBinary() + " --quiet --vio-only --map-save " + (vio / "m.vimsmap").string() + " --sequence " +
+                 seq + " --out " + freshDir("offline_vio_only_map").string());
   EXPECT_EQ(with_map.exit_code, 1) << with_map.output;
   EXPECT_NE(with_map.output.find("--vio-only"), std::string::npos) << with_map.output;
 }
 
 TEST(OfflineVio, UnknownModeIsAUsageError) {
-  const CommandResult r = runCommand(offlineBinary() + " --mode fast --sequence x --out " +
-                                     freshDir("offline_vio_badmode").string());
+  const CommandResult r =
+      runCommand(offlineBinary() + " --mode fast --sequence x --out " + freshDir("offline_vio_badmode").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("unknown mode 'fast'"), std::string::npos) << r.output;
 }

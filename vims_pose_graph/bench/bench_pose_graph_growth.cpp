@@ -11,7 +11,6 @@
 /// solve times (wall and thread CPU) and the final and online position errors against the truth.
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,9 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "vims_common/timing.h"
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/pose_graph.h"
-#include "vims_common/timing.h"
 
 using namespace vims;
 
@@ -165,14 +164,14 @@ int main(int argc, char** argv) {
   const double final_error = rmsError();
 
   std::cout << std::fixed << std::setprecision(1) << keyframes << " keyframes, " << loops << " loops, "
-            << (full ? "whole-graph solves" : "partial solves") << ", online function tolerance "
-            << std::scientific << std::setprecision(0) << options.online_function_tolerance << std::fixed << "\n";
+            << (full ? "whole-graph solves" : "partial solves") << ", online function tolerance " << std::scientific
+            << std::setprecision(0) << options.online_function_tolerance << std::fixed << "\n";
   auto row = [&](const char* name, const Timing& t) {
     double total = 0.0;
     for (double v : t.wall_ms) total += v;
     std::cout << "  " << name << ": " << t.wall_ms.size() << " solves, wall p50 " << percentile(t.wall_ms, 0.5)
-              << " / p99 " << percentile(t.wall_ms, 0.99) << " / max " << percentile(t.wall_ms, 1.0)
-              << " ms, CPU p50 " << percentile(t.cpu_ms, 0.5) << " / p99 " << percentile(t.cpu_ms, 0.99) << " / max "
+              << " / p99 " << percentile(t.wall_ms, 0.99) << " / max " << percentile(t.wall_ms, 1.0) << " ms, CPU p50 "
+              << percentile(t.cpu_ms, 0.5) << " / p99 " << percentile(t.cpu_ms, 0.99) << " / max "
               << percentile(t.cpu_ms, 1.0) << " ms, total " << std::setprecision(2) << 1e-3 * total << " s, "
               << t.iterations << " iterations\n"
               << std::setprecision(1);

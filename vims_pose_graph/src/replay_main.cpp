@@ -4,8 +4,9 @@
 /// a ground-truth revisit, what each stage produced against the ground-truth nearest keyframe.
 /// docs/pose_graph.md, "Replaying recorded inputs".
 
-#include <Eigen/Geometry>
+#include <sys/resource.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -13,11 +14,9 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/imgproc.hpp>
-#include <sys/resource.h>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/log.h"
@@ -196,15 +195,17 @@ int main(int argc, char** argv) {
       });
       std::cout << std::fixed << std::setprecision(2) << "map: " << s.keyframes << " keyframes, " << submaps
                 << " visual submaps (" << keypoints << " keypoints, " << 1e-6 * submap_bytes << " MB in memory), "
-                << s.culled_submaps << " redundant submaps culled; map file " << 1e-6 * file_bytes
-                << " MB; max RSS " << 1e-3 * usage.ru_maxrss << " MB\n";
+                << s.culled_submaps << " redundant submaps culled; map file " << 1e-6 * file_bytes << " MB; max RSS "
+                << 1e-3 * usage.ru_maxrss << " MB\n";
     }
     {
       // Cost of the pose-graph optimisation: one row per solve, and a summary line.
       const PoseGraphTimings timings = manager.timings();
       std::ofstream csv((fs::path(out_dir) / "optimisations.csv").string());
-      csv << "trigger,t_keyframe,solve_ms,solve_cpu_ms,nodes,free_nodes,loops,yaw_factors,iterations,stages,stage_iterations,"
-             "build_ms,ceres_ms,preprocessor_ms,linear_solver_ms,jacobian_ms,initial_cost,final_cost,max_new_loop_sigmas,"
+      csv << "trigger,t_keyframe,solve_ms,solve_cpu_ms,nodes,free_nodes,loops,yaw_factors,iterations,stages,stage_"
+             "iterations,"
+             "build_ms,ceres_ms,preprocessor_ms,linear_solver_ms,jacobian_ms,initial_cost,final_cost,max_new_loop_"
+             "sigmas,"
              "local_loop_solve\n";
       std::vector<double> solve_ms, cpu_ms;
       double total_ms = 0.0, total_cpu_ms = 0.0;
@@ -221,11 +222,11 @@ int main(int argc, char** argv) {
           jacobian += st.jacobian_time_s;
         }
         csv << toString(o.trigger) << "," << std::fixed << std::setprecision(3) << o.t_keyframe << "," << o.solve_ms
-            << "," << o.solve_cpu_ms << "," << r.num_nodes << "," << r.num_free_nodes << "," << r.num_loop_edges << "," << r.num_yaw_factors
-            << "," << r.iterations << "," << r.stages.size() << "," << stage_iterations << "," << 1e3 * build << ","
-            << 1e3 * ceres_total << "," << 1e3 * preprocessor << "," << 1e3 * linear << "," << 1e3 * jacobian << "," << std::setprecision(6) << r.initial_cost << ","
-            << r.final_cost << "," << std::setprecision(3) << o.max_new_loop_sigmas << "," << (o.local_loop_solve ? 1 : 0)
-            << "\n";
+            << "," << o.solve_cpu_ms << "," << r.num_nodes << "," << r.num_free_nodes << "," << r.num_loop_edges << ","
+            << r.num_yaw_factors << "," << r.iterations << "," << r.stages.size() << "," << stage_iterations << ","
+            << 1e3 * build << "," << 1e3 * ceres_total << "," << 1e3 * preprocessor << "," << 1e3 * linear << ","
+            << 1e3 * jacobian << "," << std::setprecision(6) << r.initial_cost << "," << r.final_cost << ","
+            << std::setprecision(3) << o.max_new_loop_sigmas << "," << (o.local_loop_solve ? 1 : 0) << "\n";
         solve_ms.push_back(o.solve_ms);
         cpu_ms.push_back(o.solve_cpu_ms);
         total_ms += o.solve_ms;
@@ -238,14 +239,14 @@ int main(int argc, char** argv) {
       };
       std::cout << std::fixed << std::setprecision(1) << "pose-graph optimisation: " << solve_ms.size()
                 << " solves, p50 " << pct(solve_ms, 0.5) << " ms, p99 " << pct(solve_ms, 0.99) << " ms, max "
-                << pct(solve_ms, 1.0) << " ms, total " << std::setprecision(2) << 1e-3 * total_ms
-                << " s (CPU: p50 " << std::setprecision(1) << pct(cpu_ms, 0.5) << " ms, p99 " << pct(cpu_ms, 0.99)
-                << " ms, total " << std::setprecision(2) << 1e-3 * total_cpu_ms << " s); loop correction (" << timings.loop_correction_ms.size() << " loops): p50 "
-                << std::setprecision(1) << pct(timings.loop_correction_ms, 0.5) << " ms, p99 "
-                << pct(timings.loop_correction_ms, 0.99) << " ms, max " << pct(timings.loop_correction_ms, 1.0)
-                << " ms (CPU: p50 " << pct(timings.loop_correction_cpu_ms, 0.5) << " ms, p99 "
-                << pct(timings.loop_correction_cpu_ms, 0.99) << " ms, max " << pct(timings.loop_correction_cpu_ms, 1.0)
-                << " ms)\n";
+                << pct(solve_ms, 1.0) << " ms, total " << std::setprecision(2) << 1e-3 * total_ms << " s (CPU: p50 "
+                << std::setprecision(1) << pct(cpu_ms, 0.5) << " ms, p99 " << pct(cpu_ms, 0.99) << " ms, total "
+                << std::setprecision(2) << 1e-3 * total_cpu_ms << " s); loop correction ("
+                << timings.loop_correction_ms.size() << " loops): p50 " << std::setprecision(1)
+                << pct(timings.loop_correction_ms, 0.5) << " ms, p99 " << pct(timings.loop_correction_ms, 0.99)
+                << " ms, max " << pct(timings.loop_correction_ms, 1.0) << " ms (CPU: p50 "
+                << pct(timings.loop_correction_cpu_ms, 0.5) << " ms, p99 " << pct(timings.loop_correction_cpu_ms, 0.99)
+                << " ms, max " << pct(timings.loop_correction_cpu_ms, 1.0) << " ms)\n";
     }
     if (!diagnose) return 0;
 
@@ -307,8 +308,9 @@ int main(int argc, char** argv) {
         std::vector<double> sorted = err;
         std::sort(sorted.begin(), sorted.end());
         acc << std::fixed << std::setprecision(3) << a.data.t << "," << a.data.features.size() << "," << err.size()
-            << "," << percentile(err, 0.5) << "," << (sorted.empty() ? std::nan("") : sorted[sorted.size() * 9 / 10]) << ","
-            << (b.T_w_b_gt.translation() - a.T_w_b_gt.translation()).norm() << "," << percentile(depth, 0.5) << ",";
+            << "," << percentile(err, 0.5) << "," << (sorted.empty() ? std::nan("") : sorted[sorted.size() * 9 / 10])
+            << "," << (b.T_w_b_gt.translation() - a.T_w_b_gt.translation()).norm() << "," << percentile(depth, 0.5)
+            << ",";
         const double mr = percentile(ratio, 0.5);
         std::vector<double> dev;
         for (double r : ratio) dev.push_back(std::abs(r - mr));
@@ -351,7 +353,8 @@ int main(int argc, char** argv) {
         query.node = qn->second;
         query.t = kq.data.t;
         query.T_odom_b = kq.data.T_odom_b;
-        VisualSubmap qsub = describer.describeKeyframe(kq.data.image, kq.data.features, map.vocabulary().get(), &query.points);
+        VisualSubmap qsub =
+            describer.describeKeyframe(kq.data.image, kq.data.features, map.vocabulary().get(), &query.points);
         query.bow = qsub.bow;
         // The local map, as the manager builds it: the preceding keyframes of the same session.
         for (int back = 1; back <= options.loop.query_local_map_keyframes && static_cast<int>(q) - back >= 0; ++back) {
@@ -362,10 +365,9 @@ int main(int argc, char** argv) {
         // The query's own seabed corners, as the manager gives them (the verifier decides when).
         if (options.loop.query_seabed_corners > 0) {
           DescribedPoints own = describer.describePoints(kq.data.image, kq.data.features);
-          query.seabed_points = describer.describeSeabedCorners(kq.data.image, own, kq.data.T_odom_b * T_b_c,
-                                                                options.loop.query_seabed_corners,
-                                                                options.loop.submap_corner_min_distance_px,
-                                                                options.loop.submap_corner_max_level);
+          query.seabed_points = describer.describeSeabedCorners(
+              kq.data.image, own, kq.data.T_odom_b * T_b_c, options.loop.query_seabed_corners,
+              options.loop.submap_corner_min_distance_px, options.loop.submap_corner_max_level);
         }
 
         // Ground truth: query camera -> candidate camera; the query's points in its camera (VIO).
@@ -400,9 +402,9 @@ int main(int argc, char** argv) {
           rep_dense += d3;
           rep_dense6 += d6;
         }
-        const std::vector<PointMatch> matches =
-            matchPointsToKeypoints(query.points, sub, options.loop.match_ratio, options.loop.match_max_distance,
-                                   options.loop.match_duplicate_radius_px, verifier.levelWindow(query, map, cn->second));
+        const std::vector<PointMatch> matches = matchPointsToKeypoints(
+            query.points, sub, options.loop.match_ratio, options.loop.match_max_distance,
+            options.loop.match_duplicate_radius_px, verifier.levelWindow(query, map, cn->second));
         int epi_ok = 0, reproj_ok = 0;
         std::vector<double> reproj_epi_ok;
         for (const PointMatch& m : matches) {
@@ -430,17 +432,17 @@ int main(int argc, char** argv) {
               break;
             }
         }
-        const double dyaw =
-            std::remainder(yawPitchRollFromRotation(kq.T_w_b_gt.linear()).yaw -
-                              yawPitchRollFromRotation(kc.T_w_b_gt.linear()).yaw,
-                          2.0 * M_PI) * 180.0 / M_PI;
+        const double dyaw = std::remainder(yawPitchRollFromRotation(kq.T_w_b_gt.linear()).yaw -
+                                               yawPitchRollFromRotation(kc.T_w_b_gt.linear()).yaw,
+                                           2.0 * M_PI) *
+                            180.0 / M_PI;
         diag << std::fixed << std::setprecision(3) << kq.data.t << "," << kc.data.t << "," << best_d << "," << dyaw
              << "," << kq.T_w_b_gt.translation().z() << "," << kq.data.features.size() << ","
              << query.points.numPoints() << "," << query.points.descriptors.size() << "," << sub.keypoints.size() << ","
              << visible << "," << repeatable << "," << matches.size() << "," << epi_ok << "," << reproj_ok << ","
              << percentile(reproj_epi_ok, 0.5) << "," << toString(v.stage) << ","
-             << (v.stage == LoopStage::kMatching ? v.num_matches : v.num_inliers) << "," << rank << "," << score
-             << "," << rep_orb << "," << rep_tracked << "," << rep_dense << "," << rep_dense6 << "\n";
+             << (v.stage == LoopStage::kMatching ? v.num_matches : v.num_inliers) << "," << rank << "," << score << ","
+             << rep_orb << "," << rep_tracked << "," << rep_dense << "," << rep_dense6 << "\n";
       }
     });
     return 0;

@@ -1,12 +1,11 @@
 /// vims_vocab_train: trains a BinaryVocabulary from images or from a VIMS sequence bag.
 /// See docs/vocabulary.md for the algorithm, the file format and the reproducing commands.
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
@@ -63,16 +62,26 @@ Args parseArgs(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw std::invalid_argument(flag + ": missing value (or unknown flag)");
     const std::string v = argv[++i];
-    if (flag == "--images") a.images = v;
-    else if (flag == "--sequence") a.sequence = v;
-    else if (flag == "--out") a.out = v;
-    else if (flag == "--every") a.every = parseInt(flag, v);
-    else if (flag == "--k") a.training.branching = parseInt(flag, v);
-    else if (flag == "--levels") a.training.levels = parseInt(flag, v);
-    else if (flag == "--seed") a.training.seed = static_cast<uint64_t>(parseInt(flag, v));
-    else if (flag == "--iterations") a.training.max_iterations = parseInt(flag, v);
-    else if (flag == "--max-features") a.features.max_features = parseInt(flag, v);
-    else if (flag == "--fast-threshold") a.features.fast_threshold = parseInt(flag, v);
+    if (flag == "--images")
+      a.images = v;
+    else if (flag == "--sequence")
+      a.sequence = v;
+    else if (flag == "--out")
+      a.out = v;
+    else if (flag == "--every")
+      a.every = parseInt(flag, v);
+    else if (flag == "--k")
+      a.training.branching = parseInt(flag, v);
+    else if (flag == "--levels")
+      a.training.levels = parseInt(flag, v);
+    else if (flag == "--seed")
+      a.training.seed = static_cast<uint64_t>(parseInt(flag, v));
+    else if (flag == "--iterations")
+      a.training.max_iterations = parseInt(flag, v);
+    else if (flag == "--max-features")
+      a.features.max_features = parseInt(flag, v);
+    else if (flag == "--fast-threshold")
+      a.features.fast_threshold = parseInt(flag, v);
     else if (flag == "--descriptor") {
       a.features.descriptor = vims::descriptorTypeFromString(v);
       a.training.descriptor_type = v;
@@ -80,7 +89,8 @@ Args parseArgs(int argc, char** argv) {
       throw std::invalid_argument("unknown flag '" + flag + "'");
     }
   }
-  if (a.images.empty() == a.sequence.empty()) throw std::invalid_argument("give exactly one of --images and --sequence");
+  if (a.images.empty() == a.sequence.empty())
+    throw std::invalid_argument("give exactly one of --images and --sequence");
   if (a.out.empty()) throw std::invalid_argument("--out is required");
   if (a.every < 1) throw std::invalid_argument("--every must be >= 1");
   if (a.features.max_features < 1) throw std::invalid_argument("--max-features must be >= 1");
@@ -129,13 +139,14 @@ int main(int argc, char** argv) {
     }
     size_t descriptors = 0;
     for (const auto& d : images) descriptors += d.size();
-    logger->info("vocab_train", VIMS_STR("extracted " << descriptors << " " << args.training.descriptor_type
-                                         << " descriptors from " << images.size() << " of " << seen << " images"));
+    logger->info("vocab_train",
+                 VIMS_STR("extracted " << descriptors << " " << args.training.descriptor_type << " descriptors from "
+                                       << images.size() << " of " << seen << " images"));
     const vims::BinaryVocabulary voc = vims::BinaryVocabulary::train(images, args.training, logger);
     voc.save(args.out);
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     logger->info("vocab_train", VIMS_STR("wrote " << args.out << " (" << std::filesystem::file_size(args.out)
-                                         << " bytes, " << voc.numWords() << " words) in " << elapsed << " s"));
+                                                  << " bytes, " << voc.numWords() << " words) in " << elapsed << " s"));
   } catch (const std::exception& e) {
     logger->error("vocab_train", e.what());
     return 1;

@@ -4,19 +4,18 @@
 /// chosen body poses over a flat textured seabed z = 0, with the VIO's tracked points made from
 /// Shi-Tomasi corners of the image and their ground-truth 3D points (ray-plane intersection).
 
-#include <opencv2/imgproc.hpp>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
 #include <memory>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "vims_common/keyframe_data.h"
-#include "vims_common/sequence_config.h"
 #include "vims_common/magnetic_signature.h"
+#include "vims_common/sequence_config.h"
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/vocabulary.h"
 #include "vims_sim/camera_model.h"
@@ -108,7 +107,8 @@ class TestWorld {
   /// `selection_seed`). Two visits of one place then track mostly different corners, as on real
   /// VIO keyframes (the strongest-first selection of keyframe() re-finds the same ones).
   KeyframeData trackerKeyframe(double t, uint32_t session, const Eigen::Isometry3d& T_w_b,
-                               const Eigen::Isometry3d& T_odom_b, uint32_t selection_seed, int max_corners = 150) const {
+                               const Eigen::Isometry3d& T_odom_b, uint32_t selection_seed,
+                               int max_corners = 150) const {
     KeyframeData kf;
     kf.t = t;
     kf.session = session;
@@ -174,7 +174,8 @@ inline std::shared_ptr<const BinaryVocabulary> vocabulary(const std::string& nam
 }
 
 /// The coil's signature at a body position, as the extractor reports it (canonical sign).
-inline SignatureWindow signatureAt(double t, const sim::CoilDipole& coil, const Eigen::Vector3d& p_w, bool valid = true) {
+inline SignatureWindow signatureAt(double t, const sim::CoilDipole& coil, const Eigen::Vector3d& p_w,
+                                   bool valid = true) {
   SignatureWindow w;
   w.t = t;
   w.t_start = t - 1.0;

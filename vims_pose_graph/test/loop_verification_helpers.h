@@ -30,7 +30,7 @@ inline LoopDetectorOptions testLoopOptions() {
 /// as the real tracker picks corners (image seeds image_seed + i), in a new session whose VIO
 /// frame is the world. Returns the body poses.
 inline std::vector<Eigen::Isometry3d> addTrackerPass(const test::TestWorld& world, KeyframeDescriber& describer,
-                                              double altitude, uint32_t image_seed, MultiScaleMap* map) {
+                                                     double altitude, uint32_t image_seed, MultiScaleMap* map) {
   std::vector<Eigen::Isometry3d> poses;
   const uint32_t session = map->addSession(0, false);
   for (int i = 0; i < 7; ++i) {
@@ -45,16 +45,18 @@ inline std::vector<Eigen::Isometry3d> addTrackerPass(const test::TestWorld& worl
   return poses;
 }
 
-inline void expectPoseNear(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth, double max_m, double max_deg) {
+inline void expectPoseNear(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth, double max_m,
+                           double max_deg) {
   const double dp = (estimate.translation() - truth.translation()).norm();
   const double da = Eigen::AngleAxisd(estimate.linear().transpose() * truth.linear()).angle() / kDeg;
-  EXPECT_LT(dp, max_m) << "estimate " << estimate.translation().transpose() << " truth " << truth.translation().transpose();
+  EXPECT_LT(dp, max_m) << "estimate " << estimate.translation().transpose() << " truth "
+                       << truth.translation().transpose();
   EXPECT_LT(da, max_deg);
 }
 
 /// A body pose whose camera (0.25 m ahead of the body) is over `camera_xy`, turned by `heading_deg`.
-inline Eigen::Isometry3d poseWithCameraAt(const Eigen::Vector2d& camera_xy, double z, double heading_deg, double pitch_deg = 0.0,
-                                          double roll_deg = 0.0) {
+inline Eigen::Isometry3d poseWithCameraAt(const Eigen::Vector2d& camera_xy, double z, double heading_deg,
+                                          double pitch_deg = 0.0, double roll_deg = 0.0) {
   const Eigen::Vector2d body_xy = camera_xy - Eigen::Rotation2Dd(heading_deg * kDeg) * Eigen::Vector2d(0.25, 0.0);
   return bodyPose(body_xy.x(), body_xy.y(), z, heading_deg, pitch_deg, roll_deg);
 }

@@ -152,7 +152,8 @@ TEST(KeyframeDescriber, OnePassEqualsSeparateCalls) {
   const Eigen::Isometry3d T_odom_w = yawTransform(25.0, Eigen::Vector3d(-2.0, 5.0, 1.0));
   const KeyframeData kf = world.trackerKeyframe(5.0, 0, T_w_b, T_odom_w * T_w_b, 7);
   const Eigen::Isometry3d T_odom_c = kf.T_odom_b * world.camera().T_b_c;
-  const KeyframeDescription one_pass = describer.describeKeyframeAndSeabed(kf.image, kf.features, T_odom_c, vocabulary.get());
+  const KeyframeDescription one_pass =
+      describer.describeKeyframeAndSeabed(kf.image, kf.features, T_odom_c, vocabulary.get());
 
   // The image's own ORB keypoints and BoW vector come first.
   const VisualSubmap image_only = describer.describeImage(kf.image, vocabulary.get());

@@ -11,9 +11,9 @@ namespace {
 
 /// A downward camera 2-4 m above a rough seabed, tilted by a few degrees, at yaw `yaw`.
 struct Scene {
-  Eigen::Matrix3d A;               // attitude without the yaw (what the VIO gives)
+  Eigen::Matrix3d A;  // attitude without the yaw (what the VIO gives)
   double yaw = 0.0;
-  Eigen::Matrix3d R_points_cam;    // Rz(yaw) A
+  Eigen::Matrix3d R_points_cam;  // Rz(yaw) A
   Eigen::Vector3d centre;
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> normalized;
@@ -26,7 +26,9 @@ Scene makeScene(std::mt19937& rng, int n, double noise = 0.0) {
   const Eigen::Matrix3d down = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();  // z_cam = -z
   s.A = (Eigen::AngleAxisd(0.7 * u(rng), Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(0.08 * u(rng), Eigen::Vector3d::UnitX()) *
-         Eigen::AngleAxisd(0.08 * u(rng), Eigen::Vector3d::UnitY())).toRotationMatrix() * down;
+         Eigen::AngleAxisd(0.08 * u(rng), Eigen::Vector3d::UnitY()))
+            .toRotationMatrix() *
+        down;
   s.yaw = 3.0 * u(rng);
   s.R_points_cam = Eigen::AngleAxisd(s.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * s.A;
   s.centre = Eigen::Vector3d(5.0 * u(rng), 5.0 * u(rng), 3.0 + u(rng));
@@ -52,14 +54,16 @@ TEST(KnownVerticalPose, TwoPointsGiveTheExactPoseAmongAtMostTwo) {
     bool exact = false;
     for (const VerticalPoseHypothesis& h : hypotheses) {
       // Every hypothesis reprojects both points exactly and has the known tilt.
-      EXPECT_NEAR((h.R_points_cam.transpose() * Eigen::Vector3d::UnitZ() - s.A.transpose() * Eigen::Vector3d::UnitZ())
-                      .norm(), 0.0, 1e-9);
+      EXPECT_NEAR(
+          (h.R_points_cam.transpose() * Eigen::Vector3d::UnitZ() - s.A.transpose() * Eigen::Vector3d::UnitZ()).norm(),
+          0.0, 1e-9);
       for (int i = 0; i < 2; ++i) {
         const Eigen::Vector3d p = h.R_points_cam.transpose() * (s.points[i] - h.centre);
         ASSERT_GT(p.z(), 0.0);
         EXPECT_NEAR((p.head<2>() / p.z() - s.normalized[i]).norm(), 0.0, 1e-9);
       }
-      exact = exact || ((h.centre - s.centre).norm() < 1e-7 && std::abs(std::remainder(h.yaw - s.yaw, 2 * M_PI)) < 1e-9);
+      exact =
+          exact || ((h.centre - s.centre).norm() < 1e-7 && std::abs(std::remainder(h.yaw - s.yaw, 2 * M_PI)) < 1e-9);
     }
     found += exact ? 1 : 0;
   }

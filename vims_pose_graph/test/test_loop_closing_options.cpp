@@ -148,7 +148,9 @@ TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
-  EXPECT_STREQ(loopCsvHeader(), "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,sigma_yaw_deg");
+  EXPECT_STREQ(loopCsvHeader(),
+               "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_"
+               "z,sigma_yaw_deg");
   LoopAttempt a;
   a.t_query = 1700000123.25;
   a.t_match = 1700000001.5;
@@ -218,8 +220,8 @@ MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary,
       }
       v.bow = vocabulary->transform(v.descriptors);
     }
-    const PoseGraphNodeId id = map.addNode(100.0 + i, s, T, T.translation() + Eigen::Vector3d(0.01, 0, 0), 0.1 * i + 0.01,
-                                           v, i % 2 == 0);
+    const PoseGraphNodeId id =
+        map.addNode(100.0 + i, s, T, T.translation() + Eigen::Vector3d(0.01, 0, 0), 0.1 * i + 0.01, v, i % 2 == 0);
     if (i > 0 && i != 8) map.addSequentialEdge(id - 1, id);
   }
   map.addSessionLink(7, 8, 1.5, 0.4);
@@ -276,16 +278,20 @@ TEST(MultiScaleMapLoops, EdgeWeightsFromTheLoopsOwnSigmas) {
   map.addLoopEdge(0, 2, T_mq, Eigen::Vector4d(0.003, 0.003, 0.0, 0.0));
   map.addLoopEdge(0, 1, T_mq);  // no sigmas (e.g. a degenerate refinement)
   ASSERT_EQ(map.loopEdges().size(), 2u);
-  EXPECT_TRUE(map.loopEdges()[0].sqrt_information.isApprox(Eigen::Vector4d(1 / 0.005, 1 / 0.005, 1 / 0.004, 1 / 0.001), 1e-12));
+  EXPECT_TRUE(
+      map.loopEdges()[0].sqrt_information.isApprox(Eigen::Vector4d(1 / 0.005, 1 / 0.005, 1 / 0.004, 1 / 0.001), 1e-12));
   const double ip = 1.0 / graph.loop_position_sigma_m;
-  EXPECT_TRUE(map.loopEdges()[1].sqrt_information.isApprox(Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
+  EXPECT_TRUE(
+      map.loopEdges()[1].sqrt_information.isApprox(Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
 
   graph.loop_sigma_from_inliers = false;  // the default: constants for every loop
   MultiScaleMap constant(vocabulary, graph, 0.1);
   const uint32_t s2 = constant.addSession(0, false);
-  for (int i = 0; i < 2; ++i) constant.addNode(100.0 + i, s2, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), 0.0, VisualSubmap(), false);
+  for (int i = 0; i < 2; ++i)
+    constant.addNode(100.0 + i, s2, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), 0.0, VisualSubmap(), false);
   constant.addLoopEdge(0, 1, T_mq, Eigen::Vector4d(0.003, 0.003, 0.0, 0.0));
-  EXPECT_TRUE(constant.loopEdges()[0].sqrt_information.isApprox(Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
+  EXPECT_TRUE(constant.loopEdges()[0].sqrt_information.isApprox(
+      Eigen::Vector4d(ip, ip, ip, 1.0 / graph.loop_yaw_sigma_rad), 1e-12));
 }
 
 TEST(MapFile, RoundTripIsByteIdentical) {

@@ -54,7 +54,8 @@ Scene nadirScene(int k, double spacing, double h, double eps) {
 TEST(LoopMeasurement, NadirCameraMatchesClosedForm) {
   const double h = 3.0;
   const Scene sc = nadirScene(/*k=*/4, /*spacing=*/0.25, h, /*eps=*/1e-3);
-  const auto c = refineLoopMeasurement(sc.inliers, Eigen::Isometry3d::Identity(), sc.T_odomq_bq, downwardCamera(), 0.0, 0.0);
+  const auto c =
+      refineLoopMeasurement(sc.inliers, Eigen::Isometry3d::Identity(), sc.T_odomq_bq, downwardCamera(), 0.0, 0.0);
   ASSERT_TRUE(c.has_value());
   const double n = static_cast<double>(sc.inliers.points_odom_query.size());
   // The offsets' sums nearly vanish, so the optimum and s barely move from the truth.
@@ -124,11 +125,14 @@ TEST(LoopMeasurement, TiltedMatchKeepsTheLevelledFrame) {
   // same sigmas as the untilted case.
   const double h = 3.0;
   const Scene sc = nadirScene(3, 0.3, h, 1e-3);
-  const auto level = refineLoopMeasurement(sc.inliers, Eigen::Isometry3d::Identity(), sc.T_odomq_bq, downwardCamera(), 0.0, 0.0);
+  const auto level =
+      refineLoopMeasurement(sc.inliers, Eigen::Isometry3d::Identity(), sc.T_odomq_bq, downwardCamera(), 0.0, 0.0);
   const double pitch = 0.1, roll = -0.05;
   // Match and query share the tilted attitude; the query sees the same image as before when its
   // camera is the same: tilt the body and counter-rotate the camera mounting.
-  const Eigen::Matrix3d L = (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d L =
+      (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   Eigen::Isometry3d T_odomq_bq = sc.T_odomq_bq;
   T_odomq_bq.linear() = L;
   Eigen::Isometry3d T_b_c = downwardCamera();

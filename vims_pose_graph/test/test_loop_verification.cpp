@@ -4,9 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include <opencv2/features2d.hpp>
-
 #include <numeric>
+#include <opencv2/features2d.hpp>
 
 #include "loop_test_world.h"
 #include "loop_verification_helpers.h"
@@ -158,8 +157,8 @@ TEST(LoopVerification, AcceptsRevisitFromOtherHeadingsWithCorrectRelativePose) {
     const LoopQuery q = pass.addQuery(kf, T_w_bq);
     const PoseGraphNodeId match = 3;
     const VerificationResult r = verifier.verify(q, pass.map, match);
-    ASSERT_EQ(r.stage, LoopStage::kAccepted) << "heading " << heading << ": matches " << r.num_matches << " inliers "
-                                             << r.num_inliers;
+    ASSERT_EQ(r.stage, LoopStage::kAccepted)
+        << "heading " << heading << ": matches " << r.num_matches << " inliers " << r.num_inliers;
     SCOPED_TRACE(VIMS_STR("heading " << heading << ": " << r.num_inliers << " inliers"));
     EXPECT_GE(r.num_inliers, 25);
     const Eigen::Isometry3d T_match_query_gt = pass.poses[match].inverse() * T_w_bq;
@@ -187,8 +186,9 @@ TEST(LoopVerification, RevisitWithTrackerSelectedCornersNeedsDenseCornersAndLoca
   ASSERT_GT(defaults.query_local_map_keyframes, 0);
   std::vector<LoopStage> stages;
   std::vector<std::string> details;
-  for (const Config c : {Config{0, 0, 3.0, 200}, Config{defaults.submap_dense_corners, defaults.query_local_map_keyframes,
-                                                         defaults.pnp_reprojection_px, defaults.pnp_iterations}}) {
+  for (const Config c :
+       {Config{0, 0, 3.0, 200}, Config{defaults.submap_dense_corners, defaults.query_local_map_keyframes,
+                                       defaults.pnp_reprojection_px, defaults.pnp_iterations}}) {
     LoopDetectorOptions o = testLoopOptions();
     o.submap_dense_corners = c.dense_corners;
     o.query_local_map_keyframes = c.local_map_keyframes;
@@ -209,7 +209,8 @@ TEST(LoopVerification, RevisitWithTrackerSelectedCornersNeedsDenseCornersAndLoca
     for (int j = 3; j >= 0; --j) {
       const Eigen::Vector2d along = Eigen::Rotation2Dd(120.0 * kDeg) * Eigen::Vector2d(-0.3 * j, 0.0);
       const Eigen::Isometry3d T_w_b = poseWithCameraAt(Eigen::Vector2d(1.45, 0.28) + along, 2.6, 120.0, -1.0, 1.5);
-      const KeyframeData kf = world.trackerKeyframe(100.0 - j, 1, T_w_b, T_odom_w * T_w_b, 200 + static_cast<uint32_t>(j));
+      const KeyframeData kf =
+          world.trackerKeyframe(100.0 - j, 1, T_w_b, T_odom_w * T_w_b, 200 + static_cast<uint32_t>(j));
       DescribedPoints points;
       const VisualSubmap v = describer.describeKeyframe(kf.image, kf.features, map.vocabulary().get(), &points);
       const PoseGraphNodeId n = map.addNode(kf.t, s1, kf.T_odom_b, T_w_b.translation(), 0.0, v, true);
@@ -229,9 +230,9 @@ TEST(LoopVerification, RevisitWithTrackerSelectedCornersNeedsDenseCornersAndLoca
       mergeDescribedPoints(&q.points, previous[previous.size() - 1 - static_cast<size_t>(k)]);
     const VerificationResult r = LoopVerifier(o, world.camera()).verify(q, map, 3);
     details.push_back(VIMS_STR("dense corners " << c.dense_corners << ", local map " << c.local_map_keyframes
-                               << ", pnp " << c.pnp_reprojection_px << " px x" << c.pnp_iterations
-                               << ": matches " << r.num_matches << ", inliers " << r.num_inliers << ", stage "
-                               << toString(r.stage)));
+                                                << ", pnp " << c.pnp_reprojection_px << " px x" << c.pnp_iterations
+                                                << ": matches " << r.num_matches << ", inliers " << r.num_inliers
+                                                << ", stage " << toString(r.stage)));
     stages.push_back(r.stage);
     // 0.1 m / 2 deg: the loop edge's sigmas (0.1 m, 1 deg yaw) plus the roll/pitch the graph drops.
     if (r.stage == LoopStage::kAccepted) expectPoseNear(r.T_match_query, poses[3].inverse() * T_w_bq, 0.1, 2.0);
@@ -306,7 +307,8 @@ TEST(LoopVerification, PnpPoseTiltedAgainstTheVioAttitudeIsRejected) {
   EXPECT_LT(good.tilt_error_deg, 0.5);
 
   PassMap tilted = withEditedPoses(world, pass, [](int i, Eigen::Isometry3d* T_odom_b) {
-    if (i == 3) T_odom_b->linear() = T_odom_b->linear() * Eigen::AngleAxisd(4.0 * kDeg, Eigen::Vector3d::UnitX()).matrix();
+    if (i == 3)
+      T_odom_b->linear() = T_odom_b->linear() * Eigen::AngleAxisd(4.0 * kDeg, Eigen::Vector3d::UnitX()).matrix();
   });
   const LoopQuery q2 = tilted.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
   const VerificationResult bad = LoopVerifier(o, world.camera()).verify(q2, tilted.map, 3);
@@ -547,8 +549,8 @@ TEST(HierarchicalLoopDetector, KeyframesWithoutMagneticCoverageStayInTheSearch) 
   const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.4, 29.9), 2.6, -100.0);
   LoopQuery q = pass.addQuery(world.keyframe(100.0, 9, T_w_bq, T_w_bq), T_w_bq);
   q.signature_enu = da.signature_enu;
-  HierarchicalLoopDetector full(testLoopOptions(), MagneticSubmapOptions(), ModeSettings::forMode(LoopClosingMode::kFull),
-                                world.camera());
+  HierarchicalLoopDetector full(testLoopOptions(), MagneticSubmapOptions(),
+                                ModeSettings::forMode(LoopClosingMode::kFull), world.camera());
   const DetectionResult r = full.detect(q, pass.map);
   ASSERT_TRUE(r.accepted);
   EXPECT_GE(r.accepted->match_node, 7u);

@@ -63,11 +63,12 @@ struct AltitudeRevisit {
       const Eigen::Vector2d along = Eigen::Rotation2Dd(100.0 * kDeg) * Eigen::Vector2d(-0.25 * j, 0.0);
       const Eigen::Isometry3d T_w_b =
           poseWithCameraAt(Eigen::Vector2d(1.5, 0.1) + along, query_altitude, 100.0, -1.0, 1.5);
-      const KeyframeData kf = world.trackerKeyframe(100.0 - j, 1, T_w_b, T_odom_w * T_w_b, 400 + static_cast<uint32_t>(j));
+      const KeyframeData kf =
+          world.trackerKeyframe(100.0 - j, 1, T_w_b, T_odom_w * T_w_b, 400 + static_cast<uint32_t>(j));
       DescribedPoints points;
       const VisualSubmap v = describer.describeKeyframe(kf.image, kf.features, map.vocabulary().get(), &points);
-      const PoseGraphNodeId n =
-          map.addNode(kf.t, s1, kf.T_odom_b, T_w_b.translation(), yawPitchRollFromRotation(T_w_b.linear()).yaw, v, true);
+      const PoseGraphNodeId n = map.addNode(kf.t, s1, kf.T_odom_b, T_w_b.translation(),
+                                            yawPitchRollFromRotation(T_w_b.linear()).yaw, v, true);
       if (j == 3)
         map.addSessionLink(6, n, 1.0, 0.5);
       else
@@ -124,7 +125,8 @@ TEST(LoopVerification, RevisitFromAnotherAltitudeNeedsScaleAwareMatching) {
     SCOPED_TRACE(VIMS_STR("first visit at " << map_altitude << " m, query at " << query_altitude << " m"));
     const LoopDetectorOptions before = withoutScaleAwareMatching(testLoopOptions());
     const AltitudeRevisit old_revisit(world, before, map_altitude, query_altitude);
-    const VerificationResult r_old = LoopVerifier(before, world.camera()).verify(old_revisit.query, old_revisit.map, match);
+    const VerificationResult r_old =
+        LoopVerifier(before, world.camera()).verify(old_revisit.query, old_revisit.map, match);
 
     const LoopDetectorOptions o = testLoopOptions();
     ASSERT_TRUE(o.match_level_from_altitude);
@@ -135,10 +137,10 @@ TEST(LoopVerification, RevisitFromAnotherAltitudeNeedsScaleAwareMatching) {
     EXPECT_NEAR(w.shift, std::log(query_altitude / map_altitude) / std::log(1.2), 0.15);
     EXPECT_DOUBLE_EQ(w.tolerance, o.match_predicted_level_tolerance);
     const VerificationResult r = verifier.verify(revisit.query, revisit.map, match);
-    const std::string detail = VIMS_STR("before: matches " << r_old.num_matches << ", inliers " << r_old.num_inliers
-                                        << ", " << toString(r_old.stage) << "; defaults: matches " << r.num_matches
-                                        << ", inliers " << r.num_inliers << ", tilt error " << r.tilt_error_deg
-                                        << " deg, " << toString(r.stage));
+    const std::string detail = VIMS_STR(
+        "before: matches " << r_old.num_matches << ", inliers " << r_old.num_inliers << ", " << toString(r_old.stage)
+                           << "; defaults: matches " << r.num_matches << ", inliers " << r.num_inliers
+                           << ", tilt error " << r.tilt_error_deg << " deg, " << toString(r.stage));
     EXPECT_NE(r_old.stage, LoopStage::kAccepted) << detail << ": the test no longer captures the cause";
     EXPECT_EQ(r.stage, LoopStage::kAccepted) << detail;
     if (r.stage != LoopStage::kAccepted) continue;
@@ -169,7 +171,8 @@ TEST(KeyframeDescriber, SeabedCornersLieOnTheSeabedAndAreDescribedOnCoarseLevels
                                       o.submap_corner_min_distance_px, o.submap_corner_max_level);
   ASSERT_GT(seabed.numPoints(), 200u);
   double worst = 0.0;
-  for (const Eigen::Vector3d& p_odom : seabed.p_odom) worst = std::max(worst, std::abs((T_odom_w.inverse() * p_odom).z()));
+  for (const Eigen::Vector3d& p_odom : seabed.p_odom)
+    worst = std::max(worst, std::abs((T_odom_w.inverse() * p_odom).z()));
   EXPECT_LT(worst, 1e-3) << "a seabed corner off the seabed plane by " << worst << " m";
   for (const uint64_t id : seabed.feature_id) EXPECT_NE(id >> 63, 0u);
   for (const int level : seabed.level_of_descriptor) {
@@ -199,8 +202,8 @@ TEST(HierarchicalLoopDetector, ProximityCandidatesBringAPlaceTheOtherStagesMiss)
   const ModeSettings full = ModeSettings::forMode(LoopClosingMode::kFull);
 
   o.proximity_candidates = 0;
-  const DetectionResult without = HierarchicalLoopDetector(o, MagneticSubmapOptions(), full, world.camera())
-                                      .detect(revisit.query, revisit.map);
+  const DetectionResult without =
+      HierarchicalLoopDetector(o, MagneticSubmapOptions(), full, world.camera()).detect(revisit.query, revisit.map);
   EXPECT_FALSE(without.accepted);
   EXPECT_TRUE(without.bow_pool.empty());
   EXPECT_TRUE(without.proximity_candidates.empty());
@@ -212,7 +215,8 @@ TEST(HierarchicalLoopDetector, ProximityCandidatesBringAPlaceTheOtherStagesMiss)
   // The nearest keyframe of the first visit to the query body (within the radius).
   const PoseGraphNodeId nearest = with.proximity_candidates[0];
   EXPECT_LT(nearest, 7u);
-  EXPECT_LE((revisit.map.node(nearest).pose.p_w_b - revisit.T_w_bq.translation()).head<2>().norm(), o.proximity_radius_m);
+  EXPECT_LE((revisit.map.node(nearest).pose.p_w_b - revisit.T_w_bq.translation()).head<2>().norm(),
+            o.proximity_radius_m);
   for (PoseGraphNodeId n = 0; n < 7; ++n)
     EXPECT_GE((revisit.map.node(n).pose.p_w_b - revisit.T_w_bq.translation()).head<2>().norm() + 1e-12,
               (revisit.map.node(nearest).pose.p_w_b - revisit.T_w_bq.translation()).head<2>().norm());
@@ -229,7 +233,6 @@ TEST(HierarchicalLoopDetector, ProximityCandidatesBringAPlaceTheOtherStagesMiss)
                   .proximityCandidates(revisit.query, revisit.map)
                   .empty());
 }
-
 
 }  // namespace
 }  // namespace vims

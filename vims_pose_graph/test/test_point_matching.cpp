@@ -23,7 +23,8 @@ std::vector<PointMatch> bruteForceMatches(const DescribedPoints& points, const V
     std::vector<int> distance(n, 257);
     for (size_t k = 0; k < n; ++k)
       for (size_t d = 0; d < points.descriptors.size(); ++d)
-        if (points.point_of_descriptor[d] == p && levels.admits(points.level_of_descriptor[d], candidate.keypoints[k].octave))
+        if (points.point_of_descriptor[d] == p &&
+            levels.admits(points.level_of_descriptor[d], candidate.keypoints[k].octave))
           distance[k] = std::min(distance[k], hammingDistance(points.descriptors[d], candidate.descriptors[k]));
     if (n == 0) continue;
     const size_t best = static_cast<size_t>(std::min_element(distance.begin(), distance.end()) - distance.begin());
@@ -31,7 +32,8 @@ std::vector<PointMatch> bruteForceMatches(const DescribedPoints& points, const V
     int second = 257;
     for (size_t k = 0; k < n; ++k) {
       const cv::Point2f d = candidate.keypoints[k].pt - candidate.keypoints[best].pt;
-      if (k != best && static_cast<double>(d.x) * d.x + static_cast<double>(d.y) * d.y > duplicate_radius_px * duplicate_radius_px)
+      if (k != best &&
+          static_cast<double>(d.x) * d.x + static_cast<double>(d.y) * d.y > duplicate_radius_px * duplicate_radius_px)
         second = std::min(second, distance[k]);
     }
     if (ratio < 1.0 && !(distance[best] < ratio * second)) continue;
@@ -135,7 +137,8 @@ TEST(PointMatching, OctaveGroupedMatchingEqualsBruteForce) {
       for (const Thresholds& t : thresholds) {
         const std::vector<PointMatch> expected =
             bruteForceMatches(points, candidate, t.ratio, t.max_distance, 4.0, levels);
-        const std::vector<PointMatch> got = matchPointsToKeypoints(points, candidate, t.ratio, t.max_distance, 4.0, levels);
+        const std::vector<PointMatch> got =
+            matchPointsToKeypoints(points, candidate, t.ratio, t.max_distance, 4.0, levels);
         ASSERT_EQ(got.size(), expected.size()) << "scene " << scene << " shift " << levels.shift << " tolerance "
                                                << levels.tolerance << " ratio " << t.ratio << " max " << t.max_distance;
         for (size_t i = 0; i < got.size(); ++i) {

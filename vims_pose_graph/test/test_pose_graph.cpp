@@ -118,9 +118,9 @@ TEST(PoseGraph4Dof, ClosesADriftingSquareWithOneLoop) {
   graph.addLoopEdge(0, static_cast<PoseGraphNodeId>(last), trueRelative(s, 0, last));
   const PoseGraphReport report = graph.optimise();
   const double after = positionError(graph, s, last);
-  std::cout << "[ INFO     ] end-point error " << before << " m -> " << after << " m, heading "
-            << heading_before / kDeg << " -> " << headingError(graph, s, last) / kDeg << " deg, "
-            << report.iterations << " iterations, " << report.solve_time_s * 1e3 << " ms" << std::endl;
+  std::cout << "[ INFO     ] end-point error " << before << " m -> " << after << " m, heading " << heading_before / kDeg
+            << " -> " << headingError(graph, s, last) / kDeg << " deg, " << report.iterations << " iterations, "
+            << report.solve_time_s * 1e3 << " ms" << std::endl;
   EXPECT_TRUE(report.solved);
   EXPECT_TRUE(report.yaw_gauge_fixed);
   EXPECT_EQ(report.num_nodes, last + 1);
@@ -212,7 +212,8 @@ TEST(PoseGraph4Dof, PressureDepthRemovesHeightDrift) {
   auto maxHeightError = [&] {
     double e = 0.0;
     for (size_t k = 0; k < s.T_w_b_true.size(); ++k)
-      e = std::max(e, std::abs(graph.node(static_cast<PoseGraphNodeId>(k)).p_w_b.z() - s.T_w_b_true[k].translation().z()));
+      e = std::max(e,
+                   std::abs(graph.node(static_cast<PoseGraphNodeId>(k)).p_w_b.z() - s.T_w_b_true[k].translation().z()));
     return e;
   };
   const double before = maxHeightError();
@@ -233,8 +234,9 @@ TEST(PoseGraph4Dof, GeomagneticYawRemovesYawDrift) {
   const Scenario s = makeScenario(squareHeadings(30 * kDeg, 2), 0.05 * kDeg, 1.0, 120 * kDeg);
   MagnetometerCalibration mag;
   mag.declination_deg = 12.0;
-  mag.T_b_m.linear() = (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()) *
-                        Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  mag.T_b_m.linear() =
+      (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   PoseGraph4Dof graph = buildGraph(s, PoseGraphOptions(), mag);
   const double before = maxHeadingError(graph, s);
   const size_t last = s.T_odom_b.size() - 1;
@@ -318,7 +320,8 @@ TEST(PoseGraph4Dof, SnapshotSolveApplyCarriesTheCorrectionToNewNodes) {
   Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
   step.translation() = Eigen::Vector3d(0.5, 0, 0);
   for (int i = 0; i < 5; ++i) {
-    const PoseGraphNodeId id = graph.addNode(100.0 + i, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
+    const PoseGraphNodeId id =
+        graph.addNode(100.0 + i, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
     graph.addSequentialEdge(id - 1, id);
   }
   const PoseGraphSolution solution = PoseGraph4Dof::solve(snap);
@@ -339,7 +342,8 @@ TEST(PoseGraph4Dof, SnapshotSolveApplyCarriesTheCorrectionToNewNodes) {
                 .norm(),
             1e-9);
   // A node added now starts from the corrected frame.
-  const PoseGraphNodeId n = graph.addNode(200.0, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
+  const PoseGraphNodeId n =
+      graph.addNode(200.0, graph.node(static_cast<PoseGraphNodeId>(graph.numNodes() - 1)).T_odom_b * step);
   EXPECT_LT((graph.T_map_odom(n).matrix() - T_new.matrix()).norm(), 1e-9);
   // A solution larger than the graph is refused.
   PoseGraphSolution too_big = solution;
@@ -377,8 +381,7 @@ PoseGraph4Dof buildTwoLapGraphWithLoops(const Scenario& s, size_t converged) {
   for (size_t k = 0; k < s.T_w_b_true.size(); ++k)
     EXPECT_TRUE(graph.addYawMeasurement(static_cast<PoseGraphNodeId>(k),
                                         s.T_w_b_true[k].linear().transpose() * earthFieldEnu(0.0)));
-  for (PoseGraphNodeId match : {5u, 25u, 45u})
-    graph.addLoopEdge(match, match + 80, trueRelative(s, match, match + 80));
+  for (PoseGraphNodeId match : {5u, 25u, 45u}) graph.addLoopEdge(match, match + 80, trueRelative(s, match, match + 80));
   convergeFirstNodes(&graph, converged);
   return graph;
 }
@@ -391,7 +394,8 @@ double maxNodeDifference(const PoseGraphSolution& a, const PoseGraphSolution& b,
 
 double maxYawDifference(const PoseGraphSolution& a, const PoseGraphSolution& b) {
   double worst = 0.0;
-  for (size_t k = 0; k < a.yaw_w_b.size(); ++k) worst = std::max(worst, std::abs(wrapAngle(a.yaw_w_b[k] - b.yaw_w_b[k])));
+  for (size_t k = 0; k < a.yaw_w_b.size(); ++k)
+    worst = std::max(worst, std::abs(wrapAngle(a.yaw_w_b[k] - b.yaw_w_b[k])));
   return worst;
 }
 
@@ -422,8 +426,8 @@ TEST(PoseGraph4Dof, PartialSolveAfterANewLoopMatchesTheFullSolve) {
   }
   const double moved = (a.p_w_b[query] - graph.node(query).p_w_b).norm();
   const double diff = maxNodeDifference(a, b);
-  std::cout << "[ INFO     ] new loop moved the query by " << moved << " m; partial vs full solve: max "
-            << diff << " m, " << maxYawDifference(a, b) / kDeg << " deg; " << a.report.iterations << " vs "
+  std::cout << "[ INFO     ] new loop moved the query by " << moved << " m; partial vs full solve: max " << diff
+            << " m, " << maxYawDifference(a, b) / kDeg << " deg; " << a.report.iterations << " vs "
             << b.report.iterations << " iterations" << std::endl;
   // (Measured: the query moves 0.21 m; the partial solve differs by at most 0.013 m and 0.17 deg
   // from the full one, which also re-balances the held part slightly.)
@@ -528,13 +532,14 @@ TEST(PoseGraph4Dof, LocalLoopSolveThenDeferredSolveMatchesTheSolveFromTheEarlies
   double moved = 0.0;  // by the direct solve
   for (size_t k = 0; k < n; ++k) moved = std::max(moved, (direct.p_w_b[k] - p0[k]).norm());
   std::cout << "[ INFO     ] new loop at " << before << " sigmas, after the local solve " << after_local
-            << "; the solve from the earliest node moves nodes by up to " << moved << " m; deferred vs direct: "
-            << maxNodeDifference(direct, b) << " m, " << maxYawDifference(direct, b) / kDeg << " deg" << std::endl;
+            << "; the solve from the earliest node moves nodes by up to " << moved
+            << " m; deferred vs direct: " << maxNodeDifference(direct, b) << " m, "
+            << maxYawDifference(direct, b) / kDeg << " deg" << std::endl;
   // (Measured: the loop starts at 2.8 sigmas, the local solve leaves 0.45; the direct solve
   // moves nodes by up to 0.28 m, the deferred one ends 0.2 mm / 0.0003 deg from it.)
-  EXPECT_GT(before, 1.5);                 // the loop has something to correct
-  EXPECT_LT(after_local, 0.3 * before);   // the local solve corrects it
-  EXPECT_GT(moved, 0.1);                  // and the deferred solve has work left to do
+  EXPECT_GT(before, 1.5);                // the loop has something to correct
+  EXPECT_LT(after_local, 0.3 * before);  // the local solve corrects it
+  EXPECT_GT(moved, 0.1);                 // and the deferred solve has work left to do
   EXPECT_LT(maxNodeDifference(direct, b), 0.01 * moved);
   EXPECT_LT(maxYawDifference(direct, b), 0.05 * kDeg);
 }

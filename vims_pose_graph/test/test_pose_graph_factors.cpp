@@ -147,8 +147,8 @@ TEST(RelativePose4Dof, YawResidualWrapsAroundPi) {
   RelativePose4Dof z;
   z.yaw_i_j = 4 * kDeg;
   // yaw_i = 178 deg, yaw_j = -178 deg: the true difference is +4 deg, not -356 deg.
-  const Eigen::Vector4d r = relativePose4DofResidual(Eigen::Vector3d::Zero(), 178 * kDeg, Eigen::Vector3d::Zero(),
-                                                     -178 * kDeg, z);
+  const Eigen::Vector4d r =
+      relativePose4DofResidual(Eigen::Vector3d::Zero(), 178 * kDeg, Eigen::Vector3d::Zero(), -178 * kDeg, z);
   EXPECT_NEAR(r[3], 0.0, 1e-12);
   z.yaw_i_j = 0.0;
   EXPECT_NEAR(relativePose4DofResidual(Eigen::Vector3d::Zero(), -179 * kDeg, Eigen::Vector3d::Zero(), 179 * kDeg, z)[3],

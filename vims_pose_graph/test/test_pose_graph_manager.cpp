@@ -46,7 +46,8 @@ std::vector<Eigen::Isometry3d> trajectoryA() {
   std::vector<Eigen::Isometry3d> p;
   for (int i = 0; i < 16; ++i) p.push_back(bodyPose(0.4 * i, 0.0, 2.5 + 0.1 * std::sin(0.5 * i), 0.0, 1.0, -0.5));
   p.push_back(bodyPose(6.2, 0.25, 2.5, 90.0));
-  for (int i = 0; i < 16; ++i) p.push_back(bodyPose(5.8 - 0.4 * i, 0.6, 2.6 + 0.1 * std::cos(0.4 * i), 180.0, -0.8, 1.0));
+  for (int i = 0; i < 16; ++i)
+    p.push_back(bodyPose(5.8 - 0.4 * i, 0.6, 2.6 + 0.1 * std::cos(0.4 * i), 180.0, -0.8, 1.0));
   return p;
 }
 
@@ -62,7 +63,7 @@ std::vector<Eigen::Isometry3d> trajectoryB() {
 /// yaw_drift_deg_per_m and a scale error; signatures every 0.4 s and geomagnetic samples every
 /// 0.1 s from the true poses (interpolated).
 SimRun makeRun(const test::TestWorld& world, const std::vector<Eigen::Isometry3d>& poses, double dt,
-            const Eigen::Isometry3d& T_odom_w, double yaw_drift_deg_per_m, double scale, double t0 = 100.0) {
+               const Eigen::Isometry3d& T_odom_w, double yaw_drift_deg_per_m, double scale, double t0 = 100.0) {
   SimRun run;
   run.T_w_b = poses;
   Eigen::Isometry3d T_odom_b = T_odom_w * poses.front();
@@ -87,7 +88,8 @@ SimRun makeRun(const test::TestWorld& world, const std::vector<Eigen::Isometry3d
     T.translation() = (1 - a) * poses[i].translation() + a * poses[i + 1].translation();
     return T;
   };
-  for (double t = t0; t <= t_end + 1e-9; t += 0.4) run.signatures.push_back(test::signatureAt(t, coil, poseAt(t).translation()));
+  for (double t = t0; t <= t_end + 1e-9; t += 0.4)
+    run.signatures.push_back(test::signatureAt(t, coil, poseAt(t).translation()));
   for (double t = t0; t <= t_end + 1e-9; t += 0.1)
     run.geomagnetic.emplace_back(t, poseAt(t).linear().transpose() * kGeomagneticEnu);
   return run;
@@ -96,12 +98,12 @@ SimRun makeRun(const test::TestWorld& world, const std::vector<Eigen::Isometry3d
 /// Runs rendered once per test binary.
 const SimRun& runA() {
   static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryA(), 1.0,
-                                 test::yawTransform(35.0, Eigen::Vector3d(2.0, -1.0, 0.0)), 0.6, 1.02);
+                                    test::yawTransform(35.0, Eigen::Vector3d(2.0, -1.0, 0.0)), 0.6, 1.02);
   return run;
 }
 const SimRun& runB() {
   static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryB(), 1.0,
-                                 test::yawTransform(-70.0, Eigen::Vector3d(10.0, 5.0, 0.2)), -0.4, 0.99, 5000.0);
+                                    test::yawTransform(-70.0, Eigen::Vector3d(10.0, 5.0, 0.2)), -0.4, 0.99, 5000.0);
   return run;
 }
 
@@ -165,8 +167,8 @@ Eigen::Isometry3d frameOf(const std::vector<KeyframePose>& poses, const SimRun& 
 
 /// Accepted loops agree with the truth in what the 4-DoF graph uses: the relative position and
 /// the relative yaw (the PnP tilt is dropped; it is checked in 6-DoF in test_loop_verification).
-void expectAcceptedLoopsCorrect(const std::vector<LoopAttempt>& attempts, const SimRun& query_run, const SimRun& match_run,
-                                double max_translation_error_m = 0.1) {
+void expectAcceptedLoopsCorrect(const std::vector<LoopAttempt>& attempts, const SimRun& query_run,
+                                const SimRun& match_run, double max_translation_error_m = 0.1) {
   for (const LoopAttempt& a : attempts) {
     if (!a.accepted) continue;
     const Eigen::Isometry3d gt = truthAt(match_run, a.t_match).inverse() * truthAt(query_run, a.t_query);
@@ -312,7 +314,8 @@ TEST(PoseGraphManager, RelocalisesASecondRunIntoTheFirstRunsFrame) {
   const auto map_poses = repeat.keyframePoses(true);
   double map_shift = 0.0;
   for (const KeyframePose& k : map_poses)
-    if (k.loaded) map_shift = std::max(map_shift, (k.T_w_b.translation() - (T_map_w * truthAt(a, k.t)).translation()).norm());
+    if (k.loaded)
+      map_shift = std::max(map_shift, (k.T_w_b.translation() - (T_map_w * truthAt(a, k.t)).translation()).norm());
   EXPECT_LT(map_shift, 0.2);
   std::remove(path.c_str());
 }
@@ -567,15 +570,17 @@ TEST(PoseGraphManager, ModesSelectTheirStagesOnTheSamePath) {
     if (!e.magnetic) {
       for (const LoopAttempt& a : m.loopAttempts()) EXPECT_TRUE(std::isnan(a.mag_distance));
     }
-    m.inspectMap([&](const MultiScaleMap& map) { EXPECT_EQ(map.vocabulary()->descriptorType(), toString(e.descriptor)); });
+    m.inspectMap(
+        [&](const MultiScaleMap& map) { EXPECT_EQ(map.vocabulary()->descriptorType(), toString(e.descriptor)); });
     expectAcceptedLoopsCorrect(m.loopAttempts(), run, run);
     if (e.mode == LoopClosingMode::kNoAlter) {
       EXPECT_GE(st.loops_accepted, 1u);
     }
   }
   // A mode needs the vocabulary of its descriptor.
-  EXPECT_THROW(PoseGraphManager(testOptions(LoopClosingMode::kViSlam), test::testSequence(), test::vocabulary("orb_k8l4.vocab")),
-               std::invalid_argument);
+  EXPECT_THROW(
+      PoseGraphManager(testOptions(LoopClosingMode::kViSlam), test::testSequence(), test::vocabulary("orb_k8l4.vocab")),
+      std::invalid_argument);
 }
 
 TEST(PoseGraphManager, PartialSolvesAgreeWithFullSolvesAndAreTimed) {
@@ -598,7 +603,8 @@ TEST(PoseGraphManager, PartialSolvesAgreeWithFullSolvesAndAreTimed) {
   const std::vector<KeyframePose> b = full.keyframePoses();
   ASSERT_EQ(a.size(), b.size());
   double worst = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (a[i].T_w_b.translation() - b[i].T_w_b.translation()).norm());
+  for (size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, (a[i].T_w_b.translation() - b[i].T_w_b.translation()).norm());
   std::cout << "[ INFO     ] partial vs full solves: max keyframe difference " << worst << " m" << std::endl;
   EXPECT_LT(worst, 0.03);
 
@@ -699,7 +705,8 @@ TEST(PoseGraphManager, LocalLoopSolvesDeferTheSolveFromTheEarliestNodeAndReachTh
   double worst_m = 0.0, worst_deg = 0.0;
   for (size_t i = 0; i < a.size(); ++i) {
     worst_m = std::max(worst_m, (a[i].T_w_b.translation() - b[i].T_w_b.translation()).norm());
-    worst_deg = std::max(worst_deg, Eigen::AngleAxisd(a[i].T_w_b.linear().transpose() * b[i].T_w_b.linear()).angle() / kDeg);
+    worst_deg =
+        std::max(worst_deg, Eigen::AngleAxisd(a[i].T_w_b.linear().transpose() * b[i].T_w_b.linear()).angle() / kDeg);
   }
   std::cout << "[ INFO     ] local + deferred vs immediate loop solves: " << deferred_solves << " deferred solves; max "
             << worst_m << " m, " << worst_deg << " deg apart" << std::endl;

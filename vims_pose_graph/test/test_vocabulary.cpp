@@ -7,12 +7,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "vims_pose_graph/bow_database.h"
@@ -64,8 +63,9 @@ cv::Mat makeTexture(int size, uint64_t seed) {
       default: {
         const double a = rng.uniform(0.0, 2 * M_PI);
         const double len = rng.uniform(15.0, 60.0);
-        cv::line(img, c, cv::Point(c.x + static_cast<int>(len * std::cos(a)), c.y + static_cast<int>(len * std::sin(a))),
-                 grey, rng.uniform(1, 4), cv::LINE_AA);
+        cv::line(img, c,
+                 cv::Point(c.x + static_cast<int>(len * std::cos(a)), c.y + static_cast<int>(len * std::sin(a))), grey,
+                 rng.uniform(1, 4), cv::LINE_AA);
       }
     }
   }
@@ -107,16 +107,19 @@ const PlaceRecognitionData& placeData() {
   // Built once (rendering is the slow part) and only read afterwards.
   static const PlaceRecognitionData data = [] {
     PlaceRecognitionData d;
-    for (uint64_t s = 0; s < 30; ++s) d.training_views.push_back(viewOf(makeTexture(kTextureSize, 1000 + s), 0, {}, kViewSize, 1));
+    for (uint64_t s = 0; s < 30; ++s)
+      d.training_views.push_back(viewOf(makeTexture(kTextureSize, 1000 + s), 0, {}, kViewSize, 1));
     // Revisits with another heading (right angles and arbitrary angles) and an offset of up to
     // ~20 px, plus one revisit with the same heading.
     const std::vector<double> angles = {90, 180, 270, 30, 135, 200, 315, 0};
-    const std::vector<cv::Point2d> shifts = {{8, -5}, {-12, 6}, {4, 15}, {-6, -9}, {15, 3}, {-3, 12}, {10, 10}, {-15, -4}};
+    const std::vector<cv::Point2d> shifts = {{8, -5}, {-12, 6}, {4, 15},  {-6, -9},
+                                             {15, 3}, {-3, 12}, {10, 10}, {-15, -4}};
     for (size_t place = 0; place < 20; ++place) {
       const cv::Mat texture = makeTexture(kTextureSize, 5000 + place);
       d.place_views.push_back(viewOf(texture, 0, {}, kViewSize, 2));
       for (size_t a = 0; a < angles.size(); ++a) {
-        d.query_views.push_back(viewOf(texture, angles[a], shifts[(a + place) % shifts.size()], kViewSize, 100 + place * 10 + a));
+        d.query_views.push_back(
+            viewOf(texture, angles[a], shifts[(a + place) % shifts.size()], kViewSize, 100 + place * 10 + a));
         d.query_place.push_back(place);
       }
     }
@@ -367,7 +370,8 @@ TEST(VocabularyTrainingOptions, FromReader) {
 }
 
 TEST(FeatureExtractionOptions, FromReader) {
-  const auto o = FeatureExtractionOptions::fromReader(ConfigReader::fromString("descriptor: brief\nmax_features: 300\n"));
+  const auto o =
+      FeatureExtractionOptions::fromReader(ConfigReader::fromString("descriptor: brief\nmax_features: 300\n"));
   EXPECT_EQ(o.descriptor, DescriptorType::kBrief);
   EXPECT_EQ(o.max_features, 300);
   EXPECT_EQ(FeatureExtractionOptions::fromReader(ConfigReader::fromString(o.toYaml())).toYaml(), o.toYaml());
@@ -451,8 +455,8 @@ RecognitionResult recognitionRate(DescriptorType type) {
   vo.levels = 4;
   vo.seed = 1;
   vo.descriptor_type = toString(type);
-  auto voc = std::make_shared<const BinaryVocabulary>(
-      BinaryVocabulary::train(extractAll(data.training_views, extractor), vo));
+  auto voc =
+      std::make_shared<const BinaryVocabulary>(BinaryVocabulary::train(extractAll(data.training_views, extractor), vo));
   BowDatabase db(voc, 2);
   for (const cv::Mat& view : data.place_views) db.add(extractor.extract(view).descriptors);
 
@@ -468,8 +472,8 @@ RecognitionResult recognitionRate(DescriptorType type) {
 TEST(PlaceRecognition, OrbIsRotationInvariantBriefIsNot) {
   const RecognitionResult orb = recognitionRate(DescriptorType::kOrb);
   const RecognitionResult brief = recognitionRate(DescriptorType::kBrief);
-  std::cout << "[ INFO     ] top-1 over " << orb.queries << " rotated/shifted queries: ORB " << orb.rate()
-            << ", BRIEF " << brief.rate() << std::endl;
+  std::cout << "[ INFO     ] top-1 over " << orb.queries << " rotated/shifted queries: ORB " << orb.rate() << ", BRIEF "
+            << brief.rate() << std::endl;
   EXPECT_GE(orb.rate(), 0.9);
   EXPECT_LT(brief.rate(), orb.rate() - 0.3);
 }

@@ -121,7 +121,8 @@ bool toKeyframeMsg(const KeyframeData& keyframe, const std::string& odom_frame_i
   msg.header.frame_id = odom_frame_id;
   msg.session = keyframe.session;
   msg.pose = toPoseMsg(keyframe.T_odom_b);
-  if (keyframe.port_depth && !std::isfinite(*keyframe.port_depth)) return fail(why, "keyframe port depth is not finite");
+  if (keyframe.port_depth && !std::isfinite(*keyframe.port_depth))
+    return fail(why, "keyframe port depth is not finite");
   msg.has_port_depth = keyframe.port_depth.has_value();
   msg.port_depth = keyframe.port_depth.value_or(0.0);
   msg.features.reserve(keyframe.features.size());

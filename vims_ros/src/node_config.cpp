@@ -8,8 +8,9 @@ namespace vims {
 
 std::vector<std::string> configFilesParam(const ros::NodeHandle& private_nh) {
   if (private_nh.hasParam("options_file")) {
-    throw ConfigError("parameter ~options_file is now ~config_file: a system configuration whose keys sit in the "
-                      "module's section (sonar:, magnetometer:, pose_graph:, ...; see config/*.yaml)");
+    throw ConfigError(
+        "parameter ~options_file is now ~config_file: a system configuration whose keys sit in the "
+        "module's section (sonar:, magnetometer:, pose_graph:, ...; see config/*.yaml)");
   }
   XmlRpc::XmlRpcValue value;
   if (!private_nh.getParam("config_file", value)) return {};

@@ -64,8 +64,8 @@ bool toTransformMsg(double t, const Eigen::Isometry3d& T_parent_child, const std
   return true;
 }
 
-bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string& frame, geometry_msgs::PoseStamped* out,
-                      std::string* why) {
+bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string& frame,
+                      geometry_msgs::PoseStamped* out, std::string* why) {
   if (!isFinitePose(pose)) return fail(why, "non-finite pose");
   ros::Time stamp;
   if (!toRosTime(t, &stamp, why)) return false;

@@ -9,10 +9,18 @@ LoggerPtr rosLogger() {
   return std::make_shared<Logger>(
       [](LogLevel level, const std::string& component, const std::string& message) {
         switch (level) {
-          case LogLevel::kDebug: ROS_DEBUG_STREAM_NAMED(component, message); break;
-          case LogLevel::kInfo: ROS_INFO_STREAM_NAMED(component, message); break;
-          case LogLevel::kWarn: ROS_WARN_STREAM_NAMED(component, message); break;
-          case LogLevel::kError: ROS_ERROR_STREAM_NAMED(component, message); break;
+          case LogLevel::kDebug:
+            ROS_DEBUG_STREAM_NAMED(component, message);
+            break;
+          case LogLevel::kInfo:
+            ROS_INFO_STREAM_NAMED(component, message);
+            break;
+          case LogLevel::kWarn:
+            ROS_WARN_STREAM_NAMED(component, message);
+            break;
+          case LogLevel::kError:
+            ROS_ERROR_STREAM_NAMED(component, message);
+            break;
         }
       },
       LogLevel::kDebug);

@@ -33,8 +33,8 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
       continue;
     }
     if (it->second != type) {
-      throw std::runtime_error("bag '" + bag_path + "': topic '" + topic + "' has type " + it->second +
-                               ", expected " + type);
+      throw std::runtime_error("bag '" + bag_path + "': topic '" + topic + "' has type " + it->second + ", expected " +
+                               type);
     }
   }
   start_time_ = all.getBeginTime().toSec();

@@ -36,7 +36,8 @@ bool toFilteredSonarRangeMsg(const SonarFilterResult& result, const std::string&
 }
 
 bool toSonarFilterResult(const vims::FilteredSonarRange& msg, SonarFilterResult* out, std::string* why) {
-  if (msg.status > vims::FilteredSonarRange::STATUS_RESET) return fail(why, "unknown status " + std::to_string(msg.status));
+  if (msg.status > vims::FilteredSonarRange::STATUS_RESET)
+    return fail(why, "unknown status " + std::to_string(msg.status));
   if (std::isnan(msg.raw)) return fail(why, "raw range is NaN");
   if (msg.has_estimate && !(std::isfinite(msg.filtered) && msg.filtered > 0.0)) {
     return fail(why, "filtered range is not a positive finite number");

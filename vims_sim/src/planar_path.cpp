@@ -86,7 +86,8 @@ PlanarPath::Point PlanarPath::at(double s) const {
     p.position = piece.start + sigma * Eigen::Vector2d(std::cos(h0), std::sin(h0));
   } else {
     const double k = piece.curvature;
-    p.position = piece.start + Eigen::Vector2d(std::sin(p.heading) - std::sin(h0), -(std::cos(p.heading) - std::cos(h0))) / k;
+    p.position =
+        piece.start + Eigen::Vector2d(std::sin(p.heading) - std::sin(h0), -(std::cos(p.heading) - std::cos(h0))) / k;
   }
   return p;
 }

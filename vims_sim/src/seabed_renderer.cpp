@@ -4,9 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <stdexcept>
-
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "vims_sim/camera_model.h"
 
@@ -56,7 +55,9 @@ struct SeabedRenderer::SeenRegion {
 
 SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared_ptr<const SeabedTexture> texture,
                                UnderwaterOptics optics, std::shared_ptr<const SeabedTerrain> terrain)
-    : calib_(calibration), texture_(std::move(texture)), optics_(optics),
+    : calib_(calibration),
+      texture_(std::move(texture)),
+      optics_(optics),
       terrain_(terrain && !terrain->isFlat() ? std::move(terrain) : nullptr) {
   if (!texture_) throw std::invalid_argument("SeabedRenderer: no texture");
   if (calib_.width <= 1 || calib_.height <= 1) throw std::invalid_argument("SeabedRenderer: bad image size");
@@ -66,7 +67,8 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
   // Undistort every pixel's ray once, including a one-pixel border for the pixel angles.
   std::vector<Eigen::Vector3d> unit((width + 1) * static_cast<size_t>(height + 1));
   for (int v = 0; v <= height; ++v)
-    for (int u = 0; u <= width; ++u) unit[static_cast<size_t>(v) * (width + 1) + u] = camera.unproject(Eigen::Vector2d(u, v)).normalized();
+    for (int u = 0; u <= width; ++u)
+      unit[static_cast<size_t>(v) * (width + 1) + u] = camera.unproject(Eigen::Vector2d(u, v)).normalized();
   rays_c_.resize(n);
   ray_norm_.resize(n);
   pixel_angle_.resize(n);
@@ -101,7 +103,8 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
   }
   response_lut_.resize(kResponseLutSize);
   for (int i = 0; i < kResponseLutSize; ++i) {
-    response_lut_[i] = static_cast<uint8_t>(std::lround(255.0 * rec709(static_cast<double>(i) / (kResponseLutSize - 1))));
+    response_lut_[i] =
+        static_cast<uint8_t>(std::lround(255.0 * rec709(static_cast<double>(i) / (kResponseLutSize - 1))));
   }
 }
 
@@ -304,8 +307,10 @@ void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws
     if (!hit[i]) continue;
     const int l0 = static_cast<int>(level[i]);
     const int l1 = std::min(l0 + 1, levels - 1);
-    map[l0][i] = cv::Vec2f(origin_x[l0] + ground_x[i] * inverse_texel[l0], origin_y[l0] + ground_y[i] * inverse_texel[l0]);
-    map[l1][i] = cv::Vec2f(origin_x[l1] + ground_x[i] * inverse_texel[l1], origin_y[l1] + ground_y[i] * inverse_texel[l1]);
+    map[l0][i] =
+        cv::Vec2f(origin_x[l0] + ground_x[i] * inverse_texel[l0], origin_y[l0] + ground_y[i] * inverse_texel[l0]);
+    map[l1][i] =
+        cv::Vec2f(origin_x[l1] + ground_x[i] * inverse_texel[l1], origin_y[l1] + ground_y[i] * inverse_texel[l1]);
   }
   const uint8_t* sampled[kMaxLevels];
   for (int l = 0; l < levels; ++l) {
@@ -356,8 +361,7 @@ cv::Mat SeabedRenderer::render(const Eigen::Isometry3d& T_w_c, uint64_t noise_se
   return render(T_w_c, noise_seed, lamp_on, ws);
 }
 
-cv::Mat SeabedRenderer::render(const Eigen::Isometry3d& T_w_c, uint64_t noise_seed, bool lamp_on,
-                               Workspace& ws) const {
+cv::Mat SeabedRenderer::render(const Eigen::Isometry3d& T_w_c, uint64_t noise_seed, bool lamp_on, Workspace& ws) const {
   const int width = calib_.width, height = calib_.height;
   if (lamp_on) {
     computeSignal(T_w_c, ws);

@@ -2,9 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
-
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "vims_sim/random.h"
 
@@ -208,7 +207,8 @@ void drawWeed(TileCanvas& canvas, Rng& rng, double cx, double cy) {
 
 SeabedTexture::SeabedTexture(uint64_t world_seed, SeabedTextureParams params) : seed_(world_seed), params_(params) {
   if (!(params_.texel_size > 0.0)) throw std::invalid_argument("SeabedTexture: texel size must be > 0");
-  if (params_.levels < 1 || params_.levels > 10) throw std::invalid_argument("SeabedTexture: levels must be in [1, 10]");
+  if (params_.levels < 1 || params_.levels > 10)
+    throw std::invalid_argument("SeabedTexture: levels must be in [1, 10]");
   if (params_.tile_texels <= 0 || params_.tile_texels % (1 << (params_.levels - 1)) != 0) {
     throw std::invalid_argument("SeabedTexture: tile_texels must be a positive multiple of 2^(levels - 1)");
   }

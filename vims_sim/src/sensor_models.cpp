@@ -14,10 +14,10 @@ ImuNoiseParams ImuNoiseParams::mti630() {
   const double random_walk_factor = std::sqrt(3.0 / kAllanTime);
   ImuNoiseParams p;
   p.rate_hz = 200.0;
-  p.gyro_noise_density = 0.007 * kDeg;                               // 1.22e-4 rad/s/sqrt(Hz)
-  p.gyro_random_walk = 8.0 * kDeg / 3600.0 * random_walk_factor;     // 3.9e-6 rad/s^2/sqrt(Hz)
-  p.accel_noise_density = 60.0 * kMicroG;                            // 5.9e-4 m/s^2/sqrt(Hz)
-  p.accel_random_walk = 10.0 * kMicroG * random_walk_factor;         // 9.8e-6 m/s^3/sqrt(Hz)
+  p.gyro_noise_density = 0.007 * kDeg;                            // 1.22e-4 rad/s/sqrt(Hz)
+  p.gyro_random_walk = 8.0 * kDeg / 3600.0 * random_walk_factor;  // 3.9e-6 rad/s^2/sqrt(Hz)
+  p.accel_noise_density = 60.0 * kMicroG;                         // 5.9e-4 m/s^2/sqrt(Hz)
+  p.accel_random_walk = 10.0 * kMicroG * random_walk_factor;      // 9.8e-6 m/s^3/sqrt(Hz)
   p.gravity = 9.81;
   p.gyro_initial_bias_std = 0.05 * kDeg;
   p.accel_initial_bias_std = 1.5e3 * kMicroG;

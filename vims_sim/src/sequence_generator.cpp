@@ -8,11 +8,10 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <thread>
 #include <vector>
-
-#include <opencv2/imgproc.hpp>
 
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
@@ -34,8 +33,8 @@ enum : uint64_t {
 constexpr int kCornerStride = 5;  // count corners on every 5th lit frame (cheap, still a robust median)
 
 struct FrameJob {
-  int64_t index = 0;     ///< frame number k (exposure at k * period)
-  int64_t t_ns = 0;      ///< true exposure time from the sequence start
+  int64_t index = 0;  ///< frame number k (exposure at k * period)
+  int64_t t_ns = 0;   ///< true exposure time from the sequence start
   bool lamp_on = true;
   bool count_corners = false;
 };
@@ -51,7 +50,11 @@ class FramePipeline {
  public:
   FramePipeline(const SeabedRenderer& renderer, const Trajectory& trajectory, const Eigen::Isometry3d& T_b_c,
                 std::vector<FrameJob> jobs, uint64_t noise_seed, int threads)
-      : renderer_(renderer), trajectory_(trajectory), T_b_c_(T_b_c), jobs_(std::move(jobs)), noise_seed_(noise_seed),
+      : renderer_(renderer),
+        trajectory_(trajectory),
+        T_b_c_(T_b_c),
+        jobs_(std::move(jobs)),
+        noise_seed_(noise_seed),
         max_ahead_(static_cast<size_t>(2 * threads + 2)) {
     for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { work(); });
   }
@@ -176,8 +179,8 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
     job.count_corners = job.lamp_on && k % kCornerStride == 0;
     jobs.push_back(job);
   }
-  const int threads = opt.render_threads > 0 ? opt.render_threads
-                                             : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads =
+      opt.render_threads > 0 ? opt.render_threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   FramePipeline pipeline(renderer, setup.trajectory, cfg.camera.T_b_c, jobs, deriveSeed(opt.seed, kStreamCameraNoise),
                          threads);
 

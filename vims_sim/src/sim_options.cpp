@@ -203,7 +203,8 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.out_dir = value;
       have_out = true;
     } else if (flag == "--name") {
-      if (value.empty() || value.find('/') != std::string::npos) throw argError(flag, "expected a file-name stem, got '" + value + "'");
+      if (value.empty() || value.find('/') != std::string::npos)
+        throw argError(flag, "expected a file-name stem, got '" + value + "'");
       options.name = value;
     } else if (flag == "--world-seed") {
       options.world_seed = parseSeed(flag, value);

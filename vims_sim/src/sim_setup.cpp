@@ -26,7 +26,7 @@ enum : uint64_t {
   kStreamPressureRig = 0x9b0e,
 };
 
-constexpr double kMinAltitude = 1.0;  // [m] the designed trajectory never comes closer to the seabed
+constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
 constexpr double kStandardAtmosphere = 101325.0;  // [Pa]
 
 Eigen::Matrix3d smallRotation(Rng& rng, double max_angle) {
@@ -186,8 +186,8 @@ SimSetup buildSimSetup(const SimOptions& options) {
   cfg.sonar.min_range = setup.sonar.min_range;
   cfg.sonar.max_range = setup.sonar.max_range;
 
-  cfg.magnetometer.T_b_m =
-      makeTransform(smallRotation(rig, 1.0 * kDeg), jitter(rig, Eigen::Vector3d(-0.35, 0.0, 0.05), Eigen::Vector3d(0.05, 0.05, 0.03)));
+  cfg.magnetometer.T_b_m = makeTransform(smallRotation(rig, 1.0 * kDeg), jitter(rig, Eigen::Vector3d(-0.35, 0.0, 0.05),
+                                                                                Eigen::Vector3d(0.05, 0.05, 0.03)));
   cfg.magnetometer.rate_hz = setup.magnetometer.rate_hz;
   cfg.magnetometer.noise_std = setup.magnetometer.noise_std;
 

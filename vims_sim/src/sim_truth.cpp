@@ -236,8 +236,7 @@ SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
   root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
                           "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
-                          "dropouts", "terrain", "pressure", "depth_hold_z",
-                          "hold_plane_only"});
+                          "dropouts", "terrain", "pressure", "depth_hold_z", "hold_plane_only"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -254,7 +253,8 @@ SimTruth SimTruth::load(const std::string& path) {
   t.camera_time_delay = root.get<double>("camera_time_delay");
 
   const ConfigReader coil = root.child("coil");
-  coil.rejectUnknownKeys({"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad"});
+  coil.rejectUnknownKeys(
+      {"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad"});
   t.coil.position_w = readVec3(coil, "position_enu");
   t.coil.turns = coil.get<int>("turns");
   if (t.coil.turns <= 0) throw coil.error("turns", "must be > 0");

@@ -36,7 +36,7 @@ __attribute__((always_inline)) inline void sinCosBatch(const double* x, double* 
   constexpr double kRoundingShift = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
   for (int i = 0; i < n; ++i) {
     const double q = (x[i] * kTwoOverPi + kRoundingShift) - kRoundingShift;  // nearest integer
-    const double r = ((x[i] - q * kPio2Hi) - q * kPio2Mid) - q * kPio2Lo;  // |r| <= pi/4
+    const double r = ((x[i] - q * kPio2Hi) - q * kPio2Mid) - q * kPio2Lo;    // |r| <= pi/4
     const double r2 = r * r;
     const double sin_r =
         r + r * r2 *
@@ -126,7 +126,7 @@ SeabedTerrain::SeabedTerrain(const TerrainParams& params) : params_(params), fla
   double sum_sq = 0.0;
   for (int i = 0; i < kRoughWaves; ++i) {
     rough_length[i] = 5.0 * std::pow(0.2, i / 4.0) * rough_rng.uniform(0.93, 1.07);  // 5 m ... 1 m
-    rough_direction[i] = rough_base + 137.5 * i + rough_rng.uniform(-15.0, 15.0);   // golden-angle spread
+    rough_direction[i] = rough_base + 137.5 * i + rough_rng.uniform(-15.0, 15.0);    // golden-angle spread
     rough_phase[i] = rough_rng.uniform(0.0, 2.0 * M_PI);
     sum_sq += rough_length[i] * rough_length[i];
   }
@@ -228,9 +228,10 @@ double SeabedTerrain::rockHeight(double x, double y, TerrainCursor* cursor, doub
 // run about twice as fast with AVX2's wider vectors. The results are bit-identical (the same IEEE
 // operations in the same order: the sums are not reassociated and AVX2 brings no fused
 // multiply-add), so a sequence does not depend on the machine that made it.
-__attribute__((target_clones("avx2", "default")))
-double SeabedTerrain::evaluate(double x, double y, bool with_small_scale, TerrainCursor* cursor, double* gx,
-                               double* gy) const {
+__attribute__((target_clones("avx2", "default"))) double SeabedTerrain::evaluate(double x, double y,
+                                                                                 bool with_small_scale,
+                                                                                 TerrainCursor* cursor, double* gx,
+                                                                                 double* gy) const {
   double h = plane_gx_ * x + plane_gy_ * y;
   double hx = plane_gx_, hy = plane_gy_;
   // Every slot is evaluated (unused ones have zero amplitude): fixed-length loops vectorise.
@@ -334,7 +335,7 @@ bool SeabedTerrain::firstCrossing(const Eigen::Vector3d& origin, const Eigen::Ve
   // The surface lies between the planes P + below and P + above: they bracket the first hit.
   const double height_above_plane = oz - planeHeight(ox, oy);
   const double descent = dz - (plane_gx_ * dx + plane_gy_ * dy);  // d/dt of the height above the plane
-  if (height_above_plane <= below_plane_) return false;            // under the seabed
+  if (height_above_plane <= below_plane_) return false;           // under the seabed
   double t_lo = 0.0, t_hi = t_max, plane_hit = -1.0;
   if (descent < 0.0) {
     const double inverse_rate = -1.0 / descent;
@@ -383,7 +384,7 @@ bool SeabedTerrain::firstCrossing(const Eigen::Vector3d& origin, const Eigen::Ve
   // The ray may cross the surface more than once: march with steps g / (fastest descent),
   // which cannot pass the first crossing, until within the grazing tolerance.
   const double fastest_descent = -dz + slope_bound * std::sqrt(lateral2);  // g decreases at most this fast
-  if (!(fastest_descent > 0.0)) return false;  // the ray can never come down to the seabed
+  if (!(fastest_descent > 0.0)) return false;                              // the ray can never come down to the seabed
   value = g(t);
   if (value <= 0.0) return t == 0.0 ? false : finish(t);
   for (int step = 0; value > kGrazingTolerance; ++step) {

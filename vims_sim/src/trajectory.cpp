@@ -12,7 +12,7 @@ namespace sim {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr int kSplineDegree = 5;     // quintic: acceleration is C^3, the IMU sees no kinks
+constexpr int kSplineDegree = 5;      // quintic: acceleration is C^3, the IMU sees no kinks
 constexpr double kKnotSpacing = 1.0;  // [s] control point spacing (0.4 m at the fastest)
 constexpr double kArcStep = 0.02;     // [m] resolution of the speed profile
 
@@ -105,15 +105,15 @@ std::vector<Eigen::Vector2d> scenarioLapWaypoints(Scenario scenario) {
     // Three east-west lines, then north-south lines crossing them at 90 deg, then a southbound
     // pass over the first northbound leg (x = 7.35) and a westbound line across everything.
     const double k = 1.05;  // scales the lap to about 130 m of travel
-    return {k * Eigen::Vector2d(-8.5, -6), k * Eigen::Vector2d(7, -6),    k * Eigen::Vector2d(7, 0),
-            k * Eigen::Vector2d(-7, 0),    k * Eigen::Vector2d(-7, 6),    k * Eigen::Vector2d(3.5, 6),
+    return {k * Eigen::Vector2d(-8.5, -6),  k * Eigen::Vector2d(7, -6),      k * Eigen::Vector2d(7, 0),
+            k * Eigen::Vector2d(-7, 0),     k * Eigen::Vector2d(-7, 6),      k * Eigen::Vector2d(3.5, 6),
             k * Eigen::Vector2d(3.5, -8.5), k * Eigen::Vector2d(-3.5, -8.5), k * Eigen::Vector2d(-3.5, 8),
-            k * Eigen::Vector2d(7, 8),     k * Eigen::Vector2d(7, -3),    k * Eigen::Vector2d(-8.5, -3)};
+            k * Eigen::Vector2d(7, 8),      k * Eigen::Vector2d(7, -3),      k * Eigen::Vector2d(-8.5, -3)};
   }
   // 80 m x 60 m: a long eastbound transit, a loop round the site, north-south legs crossing the
   // transits at 90 deg, a southbound pass next to the first northbound leg and a long westbound
   // transit back, 4 m beside the first one.
-  return {{-34, -24}, {32, -24}, {32, 22}, {-20, 22}, {-20, -27}, {5, -27},
+  return {{-34, -24}, {32, -24}, {32, 22},  {-20, 22},  {-20, -27}, {5, -27},
           {5, 10},    {34, 10},  {34, -20}, {-37, -20}, {-37, -24}};
 }
 
@@ -258,7 +258,8 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
   };
 
   // --- 5. Control points of the two quintic splines.
-  const double t0 = params.static_start - kKnotSpacing * std::ceil((params.static_start + params.margin) / kKnotSpacing);
+  const double t0 =
+      params.static_start - kKnotSpacing * std::ceil((params.static_start + params.margin) / kKnotSpacing);
   const int num_control =
       static_cast<int>(std::ceil((params.duration + params.margin - t0) / kKnotSpacing)) + kSplineDegree + 1;
   std::vector<Eigen::Vector3d> position_control(num_control), euler_control(num_control);

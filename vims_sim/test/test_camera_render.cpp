@@ -6,10 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
-#include <thread>
-
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <thread>
 
 #include "vims_sim/camera_model.h"
 #include "vims_sim/seabed_renderer.h"
@@ -317,15 +316,16 @@ TEST(SeabedRenderer, TiltedPlaneGeometryIsTheAnalyticIntersection) {
         ++hits;
         worst_range = std::max(worst_range, std::abs(g.range.at<float>(v, u) - t * ray_c.norm()) / (t * ray_c.norm()));
         worst_cos = std::max(worst_cos, std::abs(g.cos_incidence.at<float>(v, u) + normal.dot(d.normalized())));
-        worst_ground = std::max(worst_ground, (Eigen::Vector2d(g.ground_x.at<float>(v, u), g.ground_y.at<float>(v, u)) -
-                                               t * d.head<2>()).norm());
+        worst_ground = std::max(
+            worst_ground,
+            (Eigen::Vector2d(g.ground_x.at<float>(v, u), g.ground_y.at<float>(v, u)) - t * d.head<2>()).norm());
       }
     }
     std::cout << (renderer == &tilted ? "tilted" : "flat") << " plane, " << hits
               << " pixels: worst relative range error " << worst_range << ", cos(incidence) " << worst_cos
               << ", ground point " << worst_ground << " m\n";
-    EXPECT_LT(worst_range, 4e-7);   // measured 1.9e-7 (float storage)
-    EXPECT_LT(worst_cos, 5e-7);     // measured 2.4e-7
+    EXPECT_LT(worst_range, 4e-7);     // measured 1.9e-7 (float storage)
+    EXPECT_LT(worst_cos, 5e-7);       // measured 2.4e-7
     EXPECT_LT(worst_ground, 1.1e-6);  // measured 5.3e-7
   }
 }

@@ -109,7 +109,7 @@ TEST(GeomagneticField, EnuComponentsFromIntensityInclinationDeclination) {
   EXPECT_NEAR(b.x(), 0.0, 1e-15);
   EXPECT_NEAR(b.y(), 49e-6 * std::cos(46.0 * M_PI / 180), 1e-15);
   EXPECT_NEAR(b.z(), -49e-6 * std::sin(46.0 * M_PI / 180), 1e-15);  // pointing down
-  geo.declination_deg = 4.0;  // magnetic north 4 deg east of true north
+  geo.declination_deg = 4.0;                                        // magnetic north 4 deg east of true north
   b = geo.fieldEnu();
   EXPECT_NEAR(std::atan2(b.x(), b.y()) * 180 / M_PI, 4.0, 1e-9);
   EXPECT_NEAR(std::atan2(-b.z(), b.head<2>().norm()) * 180 / M_PI, 46.0, 1e-9);

@@ -64,7 +64,8 @@ TEST(Imu, BiasRandomWalkGrowsWithTheSquareRootOfTime) {
     accel_sq += m.accel_bias.squaredNorm();
   }
   const double T = steps / p.rate_hz;
-  EXPECT_NEAR(std::sqrt(gyro_sq / (3 * runs)), p.gyro_random_walk * std::sqrt(T), 0.1 * p.gyro_random_walk * std::sqrt(T));
+  EXPECT_NEAR(std::sqrt(gyro_sq / (3 * runs)), p.gyro_random_walk * std::sqrt(T),
+              0.1 * p.gyro_random_walk * std::sqrt(T));
   EXPECT_NEAR(std::sqrt(accel_sq / (3 * runs)), p.accel_random_walk * std::sqrt(T),
               0.1 * p.accel_random_walk * std::sqrt(T));
 }
@@ -72,8 +73,9 @@ TEST(Imu, BiasRandomWalkGrowsWithTheSquareRootOfTime) {
 TEST(Sonar, SlantRangeAlongATiltedBeam) {
   Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
   const double tilt = 0.1;
-  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY()))
-                       .toRotationMatrix();
+  T_b_s.linear() =
+      (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
   T_b_s.translation() = Eigen::Vector3d(0.1, 0.0, -0.2);
   Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
   T_w_b.translation() = Eigen::Vector3d(3.0, 4.0, 3.2);

@@ -1,9 +1,8 @@
 // End to end: generate short sequences through the rosbag sink, read them back with
 // rosbag::View and check them against the sensor contract and the ground truth; and the default
 // flat sequence against the bytes it always had (terrain and pressure: test_sim_bag_terrain.cpp).
-#include <gtest/gtest.h>
-
 #include <geometry_msgs/PoseStamped.h>
+#include <gtest/gtest.h>
 #include <ros/serialization.h>
 #include <ros/time.h>
 #include <rosbag/bag.h>
@@ -144,7 +143,8 @@ TEST_F(GeneratedSequence, TopicsTypesRatesFrameIdsAndOrder) {
     const TopicInfo& info = topics[e.topic];
     EXPECT_EQ(info.type, e.type) << e.topic;
     EXPECT_EQ(info.frame_ids, std::set<std::string>{e.frame_id}) << e.topic;
-    for (size_t i = 1; i < info.stamps.size(); ++i) ASSERT_GT(info.stamps[i], info.stamps[i - 1]) << e.topic << " " << i;
+    for (size_t i = 1; i < info.stamps.size(); ++i)
+      ASSERT_GT(info.stamps[i], info.stamps[i - 1]) << e.topic << " " << i;
     const double count = static_cast<double>(info.stamps.size());
     EXPECT_NEAR(count / (20.0 - e.gap), e.rate, 0.02 * e.rate) << e.topic;
     // The rate between consecutive stamps outside the gaps is exact.
@@ -309,8 +309,8 @@ TEST_F(GeneratedSequence, MagnetometerSeesTheEarthAndTheCoil) {
     Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
     T_w_b.linear() = gt[i].q.slerp(f, gt[i + 1].q).toRotationMatrix();
     T_w_b.translation() = (1.0 - f) * gt[i].p + f * gt[i + 1].p;
-    const Eigen::Vector3d b_predicted = MagnetometerSimulator::trueField(
-        T_w_b, config.magnetometer.T_b_m, truth.geomagnetic.fieldEnu(), truth.coil, t);
+    const Eigen::Vector3d b_predicted =
+        MagnetometerSimulator::trueField(T_w_b, config.magnetometer.T_b_m, truth.geomagnetic.fieldEnu(), truth.coil, t);
     const Eigen::Isometry3d T_w_m = T_w_b * config.magnetometer.T_b_m;
     const Eigen::Vector3d coil_m = T_w_m.linear().transpose() * truth.coil.field(T_w_m.translation(), t);
     const Eigen::Vector3d earth_m = T_w_m.linear().transpose() * truth.geomagnetic.fieldEnu();
@@ -375,7 +375,6 @@ TEST(SimulatorDeterminism, SameSeedSameBytesWhateverTheThreadCount) {
   EXPECT_EQ(messages_c.at("/imu0").size(), 600u);
   fs::remove_all(tempRoot());
 }
-
 
 // The default (flat, no pressure) output is byte for byte what the simulator wrote before the
 // terrain and the pressure sensor existed (hashes of the files written by the simulator of

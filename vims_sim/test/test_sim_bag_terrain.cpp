@@ -1,7 +1,6 @@
 // End to end over terrain with the pressure sensor: the pressure messages against the depth of
 // the port, the sonar against the terrain, and determinism whatever the thread count.
 #include <gtest/gtest.h>
-
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/FluidPressure.h>

@@ -1,10 +1,10 @@
 // Truth file round trip, command-line parsing and the seeded set-up (rig vs world seeds).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
@@ -100,11 +100,37 @@ TEST(SimTruth, LoadRejectsUnknownAndInconsistentKeys) {
 }
 
 TEST(SimCommandLine, ParsesEveryOption) {
-  const auto options = parseSimCommandLine(
-      {"--scenario", "field", "--duration", "60", "--seed", "4", "--out", "/tmp/runs/dive_07/", "--world-seed", "9",
-       "--static-start", "2.5", "--camera-delay", "0.04", "--camera-blackout", "10:12", "--camera-off", "20:21",
-       "--camera-off", "30:30.5", "--sonar-off", "5:6", "--mag-off", "7:8", "--imu-gap", "9:9.2", "--start-time",
-       "1600000000.5", "--lz4", "--threads", "1"});
+  const auto options = parseSimCommandLine({"--scenario",
+                                            "field",
+                                            "--duration",
+                                            "60",
+                                            "--seed",
+                                            "4",
+                                            "--out",
+                                            "/tmp/runs/dive_07/",
+                                            "--world-seed",
+                                            "9",
+                                            "--static-start",
+                                            "2.5",
+                                            "--camera-delay",
+                                            "0.04",
+                                            "--camera-blackout",
+                                            "10:12",
+                                            "--camera-off",
+                                            "20:21",
+                                            "--camera-off",
+                                            "30:30.5",
+                                            "--sonar-off",
+                                            "5:6",
+                                            "--mag-off",
+                                            "7:8",
+                                            "--imu-gap",
+                                            "9:9.2",
+                                            "--start-time",
+                                            "1600000000.5",
+                                            "--lz4",
+                                            "--threads",
+                                            "1"});
   ASSERT_TRUE(options.has_value());
   EXPECT_EQ(options->scenario, Scenario::kField);
   EXPECT_EQ(options->duration, 60.0);
@@ -120,8 +146,8 @@ TEST(SimCommandLine, ParsesEveryOption) {
   EXPECT_TRUE(options->lz4);
   EXPECT_EQ(options->render_threads, 1);
 
-  const auto defaults = parseSimCommandLine({"--scenario", "tank", "--duration", "5", "--seed", "3", "--out", "d",
-                                             "--name", "custom"});
+  const auto defaults =
+      parseSimCommandLine({"--scenario", "tank", "--duration", "5", "--seed", "3", "--out", "d", "--name", "custom"});
   ASSERT_TRUE(defaults.has_value());
   EXPECT_EQ(defaults->worldSeed(), 3u);
   EXPECT_EQ(defaults->sequenceName(), "custom");
@@ -257,11 +283,33 @@ TEST(SimCommandLine, TerrainPresetsAndOverrides) {
   EXPECT_GT(terrainPreset("hills").relief_m, 0.5);
   EXPECT_THROW(terrainPreset("moon"), std::invalid_argument);
 
-  const auto overridden = parseSimCommandLine(withBase(
-      {"--terrain", "rough", "--terrain-slope-deg", "6.5", "--terrain-slope-azimuth-deg", "270", "--terrain-relief-m",
-       "0.4", "--terrain-relief-wavelength-m", "22", "--terrain-roughness-m", "0.05", "--terrain-rock-height-m", "0.2",
-       "--terrain-rock-density", "0.02", "--depth-hold", "4.5", "--pressure", "--pressure-rate-hz", "20",
-       "--pressure-atmospheric-error-pa", "-300", "--pressure-spikes", "0.01", "--pressure-off", "3:4"}));
+  const auto overridden = parseSimCommandLine(withBase({"--terrain",
+                                                        "rough",
+                                                        "--terrain-slope-deg",
+                                                        "6.5",
+                                                        "--terrain-slope-azimuth-deg",
+                                                        "270",
+                                                        "--terrain-relief-m",
+                                                        "0.4",
+                                                        "--terrain-relief-wavelength-m",
+                                                        "22",
+                                                        "--terrain-roughness-m",
+                                                        "0.05",
+                                                        "--terrain-rock-height-m",
+                                                        "0.2",
+                                                        "--terrain-rock-density",
+                                                        "0.02",
+                                                        "--depth-hold",
+                                                        "4.5",
+                                                        "--pressure",
+                                                        "--pressure-rate-hz",
+                                                        "20",
+                                                        "--pressure-atmospheric-error-pa",
+                                                        "-300",
+                                                        "--pressure-spikes",
+                                                        "0.01",
+                                                        "--pressure-off",
+                                                        "3:4"}));
   ASSERT_TRUE(overridden.has_value());
   const TerrainParams t = resolveTerrain(overridden->terrain, 17);
   EXPECT_EQ(t.slope_deg, 6.5);
@@ -292,7 +340,8 @@ TEST(SimCommandLine, TerrainPresetsAndOverrides) {
   EXPECT_TRUE(parseSimCommandLine(withBase({"--terrain", "hills", "--altitude-hold"})).has_value());
   EXPECT_FALSE(defaults->hold_plane_only);
   EXPECT_FALSE(defaults->sonar_max_range.has_value());
-  const auto plane_only = parseSimCommandLine(withBase({"--terrain", "slope4", "--hold-plane-only", "--sonar-max-range", "4.2"}));
+  const auto plane_only =
+      parseSimCommandLine(withBase({"--terrain", "slope4", "--hold-plane-only", "--sonar-max-range", "4.2"}));
   ASSERT_TRUE(plane_only.has_value());
   EXPECT_TRUE(plane_only->hold_plane_only);
   EXPECT_EQ(*plane_only->sonar_max_range, 4.2);

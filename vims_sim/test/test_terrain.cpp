@@ -109,9 +109,9 @@ TEST(Terrain, EveryTermsGradientMatchesCentralDifferences) {
     bool on_rocks;
   };
   const std::vector<Case> cases = {
-      {"slope", only(7.0, 0, 0, 0, 0), false},       {"relief", only(0, 0.8, 0, 0, 0), false},
-      {"roughness", only(0, 0, 0.15, 0, 0), false},  {"rocks", only(0, 0, 0, 0.35, 0.1), true},
-      {"all terms", roughTerrain(), false},          {"all terms, on rocks", roughTerrain(), true},
+      {"slope", only(7.0, 0, 0, 0, 0), false},      {"relief", only(0, 0.8, 0, 0, 0), false},
+      {"roughness", only(0, 0, 0.15, 0, 0), false}, {"rocks", only(0, 0, 0, 0.35, 0.1), true},
+      {"all terms", roughTerrain(), false},         {"all terms, on rocks", roughTerrain(), true},
   };
   for (const Case& c : cases) {
     const SeabedTerrain terrain(c.params);
@@ -122,7 +122,7 @@ TEST(Terrain, EveryTermsGradientMatchesCentralDifferences) {
     const double worst_large = worstGradientError(terrain, points, true);
     std::cout << c.name << ": worst |gradient - central difference| " << worst << ", large scale " << worst_large
               << "\n";
-    EXPECT_LT(worst, 2e-9) << c.name;  // measured up to 9.2e-10 (h = 1e-5: truncation and rounding)
+    EXPECT_LT(worst, 2e-9) << c.name;         // measured up to 9.2e-10 (h = 1e-5: truncation and rounding)
     EXPECT_LT(worst_large, 4e-10) << c.name;  // measured up to 2.0e-10
   }
 }
@@ -298,8 +298,9 @@ TEST(Sonar, SlantRangeToASlopedPlaneAndToARock) {
   params.slope_azimuth_deg = 30.0;
   const SeabedTerrain terrain(params);
   Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) *
-                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY())).toRotationMatrix();
+  T_b_s.linear() =
+      (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
   T_b_s.translation() = Eigen::Vector3d(0.1, 0.08, -0.12);
   Rng rng(3);
   double worst = 0.0;

@@ -201,7 +201,7 @@ TEST(Trajectory, TankMotionEnvelopeMatchesTheReferenceTankTest) {
     EXPECT_GT(e.min_alt, 1.9) << seed;
     EXPECT_LT(e.max_alt, 5.1) << seed;
     EXPECT_GT(e.max_alt - e.min_alt, 1.5) << seed;  // the altitude really varies
-    EXPECT_LT(e.max_tilt, 8.0 * kDeg) << seed;       // roll and pitch of a few degrees
+    EXPECT_LT(e.max_tilt, 8.0 * kDeg) << seed;      // roll and pitch of a few degrees
     EXPECT_NEAR(e.travel, 130.0, 10.0) << seed;
     EXPECT_GT(e.min_xy.minCoeff(), -10.0) << seed;
     EXPECT_LT(e.max_xy.maxCoeff(), 10.0) << seed;
@@ -297,7 +297,7 @@ TEST(Trajectory, AltitudeHoldFollowsTheLargeScaleSeabed) {
     EXPECT_LT(max_alt, 5.1) << scenarioName(scenario);
     EXPECT_GT(min_clearance, 1.2) << scenarioName(scenario);
     EXPECT_GT(max_z - min_z, 4.0) << scenarioName(scenario);  // it really follows the seabed
-    EXPECT_GT(pitch_climb, 0.0) << scenarioName(scenario);     // nose up while climbing
+    EXPECT_GT(pitch_climb, 0.0) << scenarioName(scenario);    // nose up while climbing
   }
   double rotation_error = 0.0;
   const Trajectory field = Trajectory::design(terrainTrajectoryParams(Scenario::kField, 600.0, 4, hillyTerrain(8.0)));

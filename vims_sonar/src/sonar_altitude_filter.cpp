@@ -21,9 +21,7 @@ SonarAltitudeFilter::SonarAltitudeFilter(const SonarFilterOptions& options, cons
   options_.validate(ConfigReader::fromString("", "sonar filter options"));
 }
 
-bool SonarAltitudeFilter::validRange(double r) const {
-  return std::isfinite(r) && r >= min_range_ && r <= max_range_;
-}
+bool SonarAltitudeFilter::validRange(double r) const { return std::isfinite(r) && r >= min_range_ && r <= max_range_; }
 
 SonarAltitudeFilter::Line SonarAltitudeFilter::fitLine(const std::vector<Sample>& samples, int skip) {
   Line line;
@@ -83,11 +81,19 @@ void SonarAltitudeFilter::reset() {
 void SonarAltitudeFilter::emit(SonarFilterResult r, bool reset_trigger, std::vector<SonarFilterResult>* results) {
   if (reset_trigger && !r.accepted) r.status = SonarStatus::kReset;
   switch (r.status) {
-    case SonarStatus::kOk: ++stats_.accepted; break;
-    case SonarStatus::kOutlier: ++stats_.outliers; break;
-    case SonarStatus::kDropout: ++stats_.dropouts; break;
+    case SonarStatus::kOk:
+      ++stats_.accepted;
+      break;
+    case SonarStatus::kOutlier:
+      ++stats_.outliers;
+      break;
+    case SonarStatus::kDropout:
+      ++stats_.dropouts;
+      break;
     case SonarStatus::kWarmingUp:
-    case SonarStatus::kReset: ++stats_.warming_up; break;
+    case SonarStatus::kReset:
+      ++stats_.warming_up;
+      break;
   }
   if (results) results->push_back(r);
 }
@@ -183,13 +189,12 @@ void SonarAltitudeFilter::feedLocked(const SonarRange& sample, bool valid, std::
   if (std::abs(sample.range - line.at(sample.t)) > gate(line, sample.t)) {
     // Too long: multipath; too short: something between the sonar and the seabed (a fish, a rock
     // taller than the gate). Either way the seabed's trend is kept.
-    logger_->warnThrottled(kComponent, "outlier", sample.t, 10.0,
-                           VIMS_STR("range " << std::fixed << std::setprecision(2) << sample.range
-                                             << " m rejected as an outlier, the seabed's trend is at "
-                                             << line.at(sample.t) << " m ("
-                                             << (sample.range < line.at(sample.t) ? "a fish or a rock under the beam?"
-                                                                                  : "multipath?")
-                                             << "); further outliers within 10 s are counted, not logged"));
+    logger_->warnThrottled(
+        kComponent, "outlier", sample.t, 10.0,
+        VIMS_STR("range " << std::fixed << std::setprecision(2) << sample.range
+                          << " m rejected as an outlier, the seabed's trend is at " << line.at(sample.t) << " m ("
+                          << (sample.range < line.at(sample.t) ? "a fish or a rock under the beam?" : "multipath?")
+                          << "); further outliers within 10 s are counted, not logged"));
     r.status = SonarStatus::kOutlier;
     emit(r, false, results);
     return;
@@ -221,7 +226,8 @@ void SonarAltitudeFilter::feedAcquiring(const SonarRange& sample, bool valid) {
 
 void SonarAltitudeFilter::tryAcquire() {
   std::vector<int> index;  // positions in pending_ of the newest acquire_samples candidates
-  for (int i = static_cast<int>(pending_.size()) - 1; i >= 0 && static_cast<int>(index.size()) < options_.acquire_samples; --i) {
+  for (int i = static_cast<int>(pending_.size()) - 1;
+       i >= 0 && static_cast<int>(index.size()) < options_.acquire_samples; --i) {
     if (pending_[i].candidate) index.push_back(i);
   }
   if (static_cast<int>(index.size()) < options_.acquire_samples) return;

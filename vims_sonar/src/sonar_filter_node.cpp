@@ -34,8 +34,9 @@ class SonarFilterNode {
       : filter_(options, sequence.sonar, vims::rosLogger()) {
     pub_ = nh.advertise<vims::FilteredSonarRange>("sonar/filtered", 50);
     sub_ = nh.subscribe(input_topic, 50, &SonarFilterNode::onRange, this);
-    ROS_INFO_STREAM("sonar filter: " << sub_.getTopic() << " -> " << pub_.getTopic() << ", noise "
-                                     << filter_.noiseStd() << " m, options:\n" << options.toYaml());
+    ROS_INFO_STREAM("sonar filter: " << sub_.getTopic() << " -> " << pub_.getTopic() << ", noise " << filter_.noiseStd()
+                                     << " m, options:\n"
+                                     << options.toYaml());
   }
 
  private:

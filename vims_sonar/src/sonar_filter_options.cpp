@@ -5,8 +5,8 @@
 namespace vims {
 
 SonarFilterOptions SonarFilterOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"window_size", "gate_sigma", "min_noise_std_m", "max_range_accel_mps2", "max_gap_s",
-                            "acquire_samples"});
+  reader.rejectUnknownKeys(
+      {"window_size", "gate_sigma", "min_noise_std_m", "max_range_accel_mps2", "max_gap_s", "acquire_samples"});
   SonarFilterOptions o;
   o.window_size = reader.get<int>("window_size", o.window_size);
   o.gate_sigma = reader.get<double>("gate_sigma", o.gate_sigma);

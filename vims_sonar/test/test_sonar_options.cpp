@@ -46,4 +46,3 @@ TEST(SonarFilterOptions, FilterRejectsInvalidOptionsAtConstruction) {
   o.window_size = 1;
   EXPECT_THROW(SonarAltitudeFilter(o, SonarCalibration{}), ConfigError);
 }
-

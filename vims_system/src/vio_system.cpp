@@ -23,7 +23,8 @@ VioOutputs VioSystem::takeOutputs() {
 }
 
 void writeVioTumRow(TumWriter* tum, const VioFrameResult& frame) {
-  tum->write(frame.t_stamp, frame.T_odom_b_at_stamp.translation(), Eigen::Quaterniond(frame.T_odom_b_at_stamp.linear()));
+  tum->write(frame.t_stamp, frame.T_odom_b_at_stamp.translation(),
+             Eigen::Quaterniond(frame.T_odom_b_at_stamp.linear()));
 }
 
 }  // namespace vims

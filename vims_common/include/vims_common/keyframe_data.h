@@ -14,10 +14,10 @@ namespace vims {
 
 /// A feature the sliding window has triangulated, seen in this keyframe.
 struct KeyframeLandmark {
-  std::uint64_t id = 0;                                 ///< tracker id, unique over the run
-  Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();     ///< 3D point in the VIO (odom) frame [m]
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();      ///< observation in this image (distorted pixels)
-  Eigen::Vector2d normalized = Eigen::Vector2d::Zero(); ///< undistorted normalised image coordinates
+  std::uint64_t id = 0;                                  ///< tracker id, unique over the run
+  Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();      ///< 3D point in the VIO (odom) frame [m]
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();       ///< observation in this image (distorted pixels)
+  Eigen::Vector2d normalized = Eigen::Vector2d::Zero();  ///< undistorted normalised image coordinates
 };
 
 struct KeyframeData {

@@ -59,7 +59,7 @@ class Logger {
 using LoggerPtr = std::shared_ptr<Logger>;
 
 /// Formats anything streamable: VIMS_STR("x=" << x).
-#define VIMS_STR(expr)          \
+#define VIMS_STR(expr)           \
   ([&]() {                       \
     std::ostringstream vims_os_; \
     vims_os_ << expr;            \

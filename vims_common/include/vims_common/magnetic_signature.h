@@ -34,9 +34,9 @@ struct SignatureWindow {
 
 /// The low-passed geomagnetic field in the body frame.
 struct GeomagneticSample {
-  double t = 0.0;                                      ///< centre of the moving average [s]
-  Eigen::Vector3d field_b = Eigen::Vector3d::Zero();   ///< [T]
-  double std_per_axis = 0.0;  ///< noise of the average: noise_std / sqrt(N) [T]
+  double t = 0.0;                                     ///< centre of the moving average [s]
+  Eigen::Vector3d field_b = Eigen::Vector3d::Zero();  ///< [T]
+  double std_per_axis = 0.0;                          ///< noise of the average: noise_std / sqrt(N) [T]
 };
 
 /// The extractor's sign convention applied to any amplitude vector (e.g. an analytic peak field,

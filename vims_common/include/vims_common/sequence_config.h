@@ -28,7 +28,7 @@ struct CameraCalibration {
   int width = 640;
   int height = 480;
   double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::array<double, 4> distortion{{0, 0, 0, 0}};  ///< k1, k2, p1, p2
+  std::array<double, 4> distortion{{0, 0, 0, 0}};           ///< k1, k2, p1, p2
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  ///< camera optical frame in body
   double rate_hz = 10.0;
 };

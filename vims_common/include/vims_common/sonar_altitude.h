@@ -19,9 +19,9 @@ const char* sonarStatusName(SonarStatus status);
 
 /// The filter's verdict on one input sample.
 struct SonarFilterResult {
-  double t = 0.0;         ///< stamp of the input sample [s]
-  double raw = 0.0;       ///< input range [m] as received (may be +inf)
-  double filtered = 0.0;  ///< filtered range at t [m]; valid only when has_estimate
+  double t = 0.0;             ///< stamp of the input sample [s]
+  double raw = 0.0;           ///< input range [m] as received (may be +inf)
+  double filtered = 0.0;      ///< filtered range at t [m]; valid only when has_estimate
   bool has_estimate = false;  ///< a trusted trend existed at t (false while warming up)
   bool accepted = false;      ///< the raw range was accepted as a good measurement
   SonarStatus status = SonarStatus::kWarmingUp;

@@ -127,10 +127,10 @@ struct EstimatorOptions {
   double max_frame_wait_s = 1.0;
   /// Failure thresholds (VINS-Mono's values for the biases and the jump; an AUV never moves
   /// 2 m in one frame period).
-  double failure_max_accel_bias = 2.5;   ///< [m/s^2]
-  double failure_max_gyro_bias = 1.0;    ///< [rad/s]
+  double failure_max_accel_bias = 2.5;  ///< [m/s^2]
+  double failure_max_gyro_bias = 1.0;   ///< [rad/s]
   double failure_max_position_jump_m = 2.0;
-  double failure_max_velocity = 5.0;     ///< [m/s] far above any AUV speed
+  double failure_max_velocity = 5.0;  ///< [m/s] far above any AUV speed
   /// Fewer tracked features than this for longer than failure_lost_tracking_s: re-initialise.
   /// Until then the state is propagated by the IMU (frames without features are not added) and
   /// the first frame with features again is linked to the window by the preintegration across

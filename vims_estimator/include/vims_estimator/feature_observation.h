@@ -41,7 +41,8 @@ inline Eigen::Vector2d correctedUv(const FeatureObservation& obs, double td) {
 
 /// Unit bearing b = m/|m| of m = [correctedUv(obs, td); 1]; optionally db/dtd =
 /// (I - b b^T)/|m| [velocity; 0].
-inline Eigen::Vector3d unitBearing(const FeatureObservation& obs, double td, Eigen::Vector3d* d_bearing_d_td = nullptr) {
+inline Eigen::Vector3d unitBearing(const FeatureObservation& obs, double td,
+                                   Eigen::Vector3d* d_bearing_d_td = nullptr) {
   const Eigen::Vector3d m = correctedUv(obs, td).homogeneous();
   const double norm = m.norm();  // >= 1, never zero
   const Eigen::Vector3d b = m / norm;

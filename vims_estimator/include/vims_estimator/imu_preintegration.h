@@ -102,8 +102,8 @@ class ImuPreintegration {
   /// First-order bias-corrected preintegrated values at biases (ba, bg):
   ///   alpha(b) = alpha + dalpha/dba dba + dalpha/dbg dbg,   beta likewise,
   ///   gamma(b) = gamma (x) Exp(dgamma/dbg dbg),             dba = ba - ba_lin, dbg = bg - bg_lin.
-  void correct(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg, Eigen::Vector3d* alpha,
-               Eigen::Vector3d* beta, Eigen::Quaterniond* gamma) const;
+  void correct(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg, Eigen::Vector3d* alpha, Eigen::Vector3d* beta,
+               Eigen::Quaterniond* gamma) const;
 
   double startTime() const { return samples_.front().t; }
   double endTime() const { return samples_.back().t; }

@@ -68,8 +68,8 @@ class MarginalizationInfo {
   /// Adds a residual block. `loss` may be null. `cost` is evaluated in marginalize(); it must
   /// stay valid until then (shared ownership). Throws std::invalid_argument if a block is
   /// undeclared or its declared size differs from the cost function's.
-  void addResidualBlock(std::shared_ptr<const ceres::CostFunction> cost, std::shared_ptr<const ceres::LossFunction> loss,
-                        const std::vector<double*>& blocks);
+  void addResidualBlock(std::shared_ptr<const ceres::CostFunction> cost,
+                        std::shared_ptr<const ceres::LossFunction> loss, const std::vector<double*>& blocks);
 
   /// Linearises all residual blocks at the current block values and marginalises `drop`.
   /// Returns the prior on the kept blocks (ordered by first appearance in the residual blocks),

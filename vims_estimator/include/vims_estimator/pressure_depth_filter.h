@@ -17,7 +17,7 @@ class PressureDepthFilter {
   struct Result {
     bool accepted = false;
     double t = 0.0;
-    double depth = 0.0;  ///< [m] below the surface, from the YAML's atmospheric_pa and density
+    double depth = 0.0;            ///< [m] below the surface, from the YAML's atmospheric_pa and density
     std::string rejected_because;  ///< empty when accepted
   };
 

@@ -39,7 +39,7 @@ struct SeabedSample {
 /// The learnt misfit m and what it rests on.
 struct SeabedReliefEstimate {
   double misfit_per_m = 0.0;
-  int pairs = 0;               ///< pairs of hits at the features' distances
+  int pairs = 0;                 ///< pairs of hits at the features' distances
   double pair_distance_m = 0.0;  ///< the features' median distance from their hits
 };
 

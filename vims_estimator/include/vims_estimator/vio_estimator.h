@@ -30,12 +30,12 @@ class LossFunction;
 #include "vims_common/log.h"
 #include "vims_common/sensor_data.h"
 #include "vims_common/sequence_config.h"
+#include "vims_common/sonar_altitude.h"
 #include "vims_estimator/estimator_options.h"
 #include "vims_estimator/imu_preintegration.h"
 #include "vims_estimator/marginalization.h"
 #include "vims_estimator/pressure_depth_filter.h"
 #include "vims_estimator/seabed_relief.h"
-#include "vims_common/sonar_altitude.h"
 #include "vims_tracking/feature_tracker.h"
 
 namespace vims {
@@ -45,18 +45,18 @@ struct SeabedTies;
 
 /// What the estimator did with a frame.
 enum class VioStatus {
-  kWaitingForImu,    ///< not enough IMU before the first frame to find gravity: frame skipped
-  kInitialized,      ///< this frame started a session (gravity-aligned first state)
-  kTracking,         ///< normal operation: window optimised
-  kNoVisualUpdate,   ///< blank/feature-less frame: state propagated by the IMU (and sonar) only
-  kReset,            ///< failure or bad input: the estimator reset, a new session starts next frame
+  kWaitingForImu,   ///< not enough IMU before the first frame to find gravity: frame skipped
+  kInitialized,     ///< this frame started a session (gravity-aligned first state)
+  kTracking,        ///< normal operation: window optimised
+  kNoVisualUpdate,  ///< blank/feature-less frame: state propagated by the IMU (and sonar) only
+  kReset,           ///< failure or bad input: the estimator reset, a new session starts next frame
 };
 const char* vioStatusName(VioStatus status);
 
 /// The estimator's output for one processed frame.
 struct VioFrameResult {
-  double t_stamp = 0.0;   ///< image header stamp as recorded [s]
-  double t_state = 0.0;   ///< t_stamp - td used for this frame (the state's time)
+  double t_stamp = 0.0;  ///< image header stamp as recorded [s]
+  double t_state = 0.0;  ///< t_stamp - td used for this frame (the state's time)
   VioStatus status = VioStatus::kTracking;
   std::uint32_t session = 0;
   /// Body pose in the VIO frame at the recorded stamp t_stamp (the state at t_state moved to
@@ -67,7 +67,7 @@ struct VioFrameResult {
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
   double td = 0.0;
-  bool keyframe = false;     ///< the previous frame was kept as a keyframe at this step
+  bool keyframe = false;  ///< the previous frame was kept as a keyframe at this step
   int features_in_window = 0;
   int sonar_factors = 0;
   int pressure_factors = 0;
@@ -77,7 +77,7 @@ struct VioFrameResult {
   std::optional<double> seabed_height;  ///< z of the newest sonar hit in the VIO frame [m]
   /// The newest frame's sonar beam hit on the seabed in the VIO frame, when it has a range.
   std::optional<Eigen::Vector3d> sonar_hit;
-  double backend_ms = 0.0;   ///< wall time of this frame's optimisation and marginalisation
+  double backend_ms = 0.0;  ///< wall time of this frame's optimisation and marginalisation
 };
 
 /// IMU-rate propagated state (for the node's high-rate odometry).
@@ -90,9 +90,9 @@ struct VioImuState {
 
 /// A seabed height measured by the sonar at one keyframe (gravity-aligned VIO frame).
 struct SeabedFix {
-  double height = 0.0;                          ///< z of the beam's seabed hit [m]
-  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  ///< horizontal position of the keyframe [m]
-  double t = 0.0;                               ///< the keyframe's state time [s]
+  double height = 0.0;                              ///< z of the beam's seabed hit [m]
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();     ///< horizontal position of the keyframe [m]
+  double t = 0.0;                                   ///< the keyframe's state time [s]
   Eigen::Vector2d slope = Eigen::Vector2d::Zero();  ///< seabed gradient there (local_plane model)
 };
 
@@ -204,7 +204,7 @@ class VioEstimator {
   /// The seabed point frame f's sonar hit, at the current estimate (nullopt without a range).
   std::optional<SeabedSample> seabedSample(const Frame& f, bool sloped) const;
 
-  std::vector<ImuSample> imu_;  ///< recent IMU samples, strictly increasing
+  std::vector<ImuSample> imu_;                   ///< recent IMU samples, strictly increasing
   std::deque<std::pair<double, double>> sonar_;  ///< (t, filtered range) of accepted results
   /// Pressure: the filter (null without a pressure sensor in the sequence), the accepted (t,
   /// depth) samples, the surface height in this session's frame l (a state, once initialised).
@@ -243,7 +243,7 @@ class VioEstimator {
   bool session_started_ = false;
   double last_good_tracking_t_ = 0.0;
   double last_frame_stamp_ = -1e300;
-  double last_td_log_t_ = -1e300;       ///< stamp of the last td log line (estimate_td)
+  double last_td_log_t_ = -1e300;  ///< stamp of the last td log line (estimate_td)
 
   std::vector<VioFrameResult> results_;
   std::vector<KeyframeData> keyframes_;

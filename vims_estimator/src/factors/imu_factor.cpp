@@ -8,8 +8,8 @@
 
 namespace vims {
 
-Eigen::Matrix<double, 15, 1> imuResidual(const ImuPreintegration& pre, const Eigen::Vector3d& g_l,
-                                         const NavState& xi, const NavState& xj, ImuResidualJacobians* J) {
+Eigen::Matrix<double, 15, 1> imuResidual(const ImuPreintegration& pre, const Eigen::Vector3d& g_l, const NavState& xi,
+                                         const NavState& xj, ImuResidualJacobians* J) {
   const double T = pre.deltaTime();
   Eigen::Vector3d alpha, beta;
   Eigen::Quaterniond gamma;

@@ -7,8 +7,8 @@
 
 namespace vims {
 
-Vector6d posePriorResidual(const Eigen::Vector3d& p_l_b, const Eigen::Quaterniond& q_l_b,
-                           const Eigen::Vector3d& p0_l_b, const Eigen::Quaterniond& q0_l_b, Matrix6d* d_pose) {
+Vector6d posePriorResidual(const Eigen::Vector3d& p_l_b, const Eigen::Quaterniond& q_l_b, const Eigen::Vector3d& p0_l_b,
+                           const Eigen::Quaterniond& q0_l_b, Matrix6d* d_pose) {
   Vector6d r;
   r.head<3>() = p_l_b - p0_l_b;
   r.tail<3>() = so3::log(q_l_b * q0_l_b.conjugate());

@@ -40,8 +40,7 @@ RelativePoseFactor::RelativePoseFactor(const Eigen::Vector3d& p_bi_bj, const Eig
 bool RelativePoseFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   Matrix6d J_i, J_j;
   const Vector6d r = relativePoseResidual(poseBlockToIsometry(parameters[0]), poseBlockToIsometry(parameters[1]),
-                                          p_bi_bj_, q_bi_bj_, jacobians ? &J_i : nullptr,
-                                          jacobians ? &J_j : nullptr);
+                                          p_bi_bj_, q_bi_bj_, jacobians ? &J_i : nullptr, jacobians ? &J_j : nullptr);
   Eigen::Map<Vector6d>{residuals} = sqrt_information_ * r;
   if (!jacobians) return true;
   writePoseJacobian<6>(sqrt_information_ * J_i, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);

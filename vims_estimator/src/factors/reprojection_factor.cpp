@@ -25,8 +25,8 @@ std::string ReprojectionOptions::toYaml() const {
 
 Eigen::Vector2d reprojectionResidual(const FeatureObservation& anchor, const FeatureObservation& target,
                                      const Eigen::Isometry3d& T_l_bi, const Eigen::Isometry3d& T_l_bk,
-                                     const Eigen::Isometry3d& T_b_c, double lambda, double td,
-                                     ReprojectionJacobians* J, double* depth_in_target) {
+                                     const Eigen::Isometry3d& T_b_c, double lambda, double td, ReprojectionJacobians* J,
+                                     double* depth_in_target) {
   const Eigen::Matrix3d R_i = T_l_bi.linear();
   const Eigen::Matrix3d R_k = T_l_bk.linear();
   const Eigen::Matrix3d R_bc = T_b_c.linear();
@@ -83,8 +83,8 @@ bool ReprojectionFactor::Evaluate(double const* const* parameters, double* resid
 
   ReprojectionJacobians J;
   double z = 0.0;
-  const Eigen::Vector2d r = reprojectionResidual(anchor_, target_, T_l_bi, T_l_bk, T_b_c, lambda, td,
-                                                 jacobians ? &J : nullptr, &z);
+  const Eigen::Vector2d r =
+      reprojectionResidual(anchor_, target_, T_l_bi, T_l_bk, T_b_c, lambda, td, jacobians ? &J : nullptr, &z);
   if (!(z > kMinDepth) || !r.allFinite()) return false;
   Eigen::Map<Eigen::Vector2d>{residuals} = sqrt_information_ * r;
   if (!jacobians) return true;

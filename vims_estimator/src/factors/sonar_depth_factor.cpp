@@ -29,7 +29,8 @@ double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) co
 }
 
 SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "learn_misfit", "misfit_history_hits", "misfit_min_pairs", "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
+  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "learn_misfit", "misfit_history_hits", "misfit_min_pairs",
+                            "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
                             "carry_slope_std", "carry_max_distance_m"});
   SonarDepthOptions o;
   o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
@@ -178,7 +179,8 @@ SonarGateResult seabedHeightGate(const FeatureObservation& anchor, const SeabedP
 SonarHitMeasurement::SonarHitMeasurement(const char* factor, const FeatureObservation& anchor_observation,
                                          double range_m, const Eigen::Isometry3d& sonar_extrinsic, double sigma)
     : anchor(anchor_observation), range(range_m), T_b_s(sonar_extrinsic), inv_sigma(1.0 / sigma) {
-  if (!(std::isfinite(range_m) && range_m > 0.0)) throw std::invalid_argument(std::string(factor) + ": range must be > 0");
+  if (!(std::isfinite(range_m) && range_m > 0.0))
+    throw std::invalid_argument(std::string(factor) + ": range must be > 0");
   if (!(std::isfinite(sigma) && sigma > 0.0)) throw std::invalid_argument(std::string(factor) + ": sigma must be > 0");
 }
 
@@ -222,9 +224,9 @@ SeabedHeightFactor::SeabedHeightFactor(const FeatureObservation& anchor, const S
 
 bool SeabedHeightFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   SonarDepthJacobians J;
-  const double r = seabedHeightResidual(anchor_, plane_, poseBlockToIsometry(parameters[0]),
-                                        poseBlockToIsometry(parameters[1]), parameters[2][0], parameters[3][0],
-                                        jacobians ? &J : nullptr);
+  const double r =
+      seabedHeightResidual(anchor_, plane_, poseBlockToIsometry(parameters[0]), poseBlockToIsometry(parameters[1]),
+                           parameters[2][0], parameters[3][0], jacobians ? &J : nullptr);
   return writeWhitened(r, J, inv_sigma_, parameters, residuals, jacobians);
 }
 

@@ -62,7 +62,8 @@ VisualInertialInitOptions VisualInertialInitOptions::fromReader(const ConfigRead
 
 std::string VisualInertialInitOptions::toYaml() const {
   std::ostringstream os;
-  os << "enabled: " << (enabled ? "true" : "false") << "\nwindow_frames: " << window_frames << "\nmin_relative_pose_features: " << min_relative_pose_features
+  os << "enabled: " << (enabled ? "true" : "false") << "\nwindow_frames: " << window_frames
+     << "\nmin_relative_pose_features: " << min_relative_pose_features
      << "\nmin_relative_pose_parallax_px: " << min_relative_pose_parallax_px
      << "\nransac_threshold_px: " << ransac_threshold_px << "\nmin_sfm_points: " << min_sfm_points
      << "\nmax_sfm_rms_px: " << max_sfm_rms_px << "\ngravity_norm_tolerance: " << gravity_norm_tolerance
@@ -73,12 +74,18 @@ std::string VisualInertialInitOptions::toYaml() const {
 
 const char* visualInertialInitStatusName(VisualInertialInitStatus status) {
   switch (status) {
-    case VisualInertialInitStatus::kSuccess: return "success";
-    case VisualInertialInitStatus::kTooFewFrames: return "too_few_frames";
-    case VisualInertialInitStatus::kNoRelativePose: return "no_relative_pose";
-    case VisualInertialInitStatus::kSfmFailed: return "sfm_failed";
-    case VisualInertialInitStatus::kInsufficientExcitation: return "insufficient_excitation";
-    case VisualInertialInitStatus::kAlignmentFailed: return "alignment_failed";
+    case VisualInertialInitStatus::kSuccess:
+      return "success";
+    case VisualInertialInitStatus::kTooFewFrames:
+      return "too_few_frames";
+    case VisualInertialInitStatus::kNoRelativePose:
+      return "no_relative_pose";
+    case VisualInertialInitStatus::kSfmFailed:
+      return "sfm_failed";
+    case VisualInertialInitStatus::kInsufficientExcitation:
+      return "insufficient_excitation";
+    case VisualInertialInitStatus::kAlignmentFailed:
+      return "alignment_failed";
   }
   return "unknown";
 }
@@ -142,7 +149,8 @@ AlignmentSystem buildAlignment(const std::vector<InitFrame>& frames, const std::
     A.block<3, 1>(0, 6 + ng + 3) = R_bi_c0 * (pbar[j] - pbar[i]);
     // Measured at the linearisation bias b_lin: alpha(b_a) = alpha + J_alpha_ba (b_a - b_lin).
     const Eigen::Vector3d ba_lin = pre.linearizedAccelBias();
-    b.head<3>() = pre.alpha() - pre.dAlphaDba() * ba_lin - p_bc + R_bi_c0 * R_c0_b[j] * p_bc + 0.5 * dt * dt * R_bi_c0 * g0;
+    b.head<3>() =
+        pre.alpha() - pre.dAlphaDba() * ba_lin - p_bc + R_bi_c0 * R_c0_b[j] * p_bc + 0.5 * dt * dt * R_bi_c0 * g0;
     A.block<3, 3>(3, 0) = -Eigen::Matrix3d::Identity();
     A.block<3, 3>(3, 3) = R_bi_c0 * R_c0_b[j];
     A.block(3, 6, 3, ng) = -dt * R_bi_c0 * gravity_basis;
@@ -156,15 +164,16 @@ AlignmentSystem buildAlignment(const std::vector<InitFrame>& frames, const std::
     cov.block<3, 3>(0, 3) = P.block<3, 3>(kIdxAlpha, kIdxBeta);
     cov.block<3, 3>(3, 0) = P.block<3, 3>(kIdxBeta, kIdxAlpha);
     cov.block<3, 3>(3, 3) = P.block<3, 3>(kIdxBeta, kIdxBeta);
-    cov.block<3, 3>(0, 0) += 2.0 * options.sfm_position_sigma_m * options.sfm_position_sigma_m *
-                             Eigen::Matrix3d::Identity();
+    cov.block<3, 3>(0, 0) +=
+        2.0 * options.sfm_position_sigma_m * options.sfm_position_sigma_m * Eigen::Matrix3d::Identity();
     const Eigen::Matrix<double, 6, 6> W = cov.inverse();
     const Eigen::MatrixXd AtW = A.transpose() * W;
     const Eigen::MatrixXd HA = AtW * A;
     const Eigen::VectorXd gA = AtW * b;
     // Scatter the local columns [v_i (3), v_j (3), g (ng), b_a (3), s (1)] to
     // [3i, 3j, 3n, 3n+ng, 3n+ng+3].
-    const std::pair<int, int> blocks[] = {{3 * i, 0}, {3 * j, 3}, {3 * n, 6}, {3 * n + ng, 6 + ng}, {3 * n + ng + 3, 6 + ng + 3}};
+    const std::pair<int, int> blocks[] = {
+        {3 * i, 0}, {3 * j, 3}, {3 * n, 6}, {3 * n + ng, 6 + ng}, {3 * n + ng + 3, 6 + ng + 3}};
     const int sizes[] = {3, 3, ng, 3, 1};
     for (int a = 0; a < 5; ++a) {
       sys.g.segment(blocks[a].first, sizes[a]) += gA.segment(blocks[a].second, sizes[a]);
@@ -258,8 +267,8 @@ VisualInertialInitResult VisualInertialInitializer::initialize(std::vector<InitF
   // 3. Linear alignment with free gravity.
   Eigen::VectorXd x;
   double scale_std = 0.0;
-  const AlignmentSystem free_sys = buildAlignment(frames, R_c0_b, pbar, p_bc, Eigen::Matrix3d::Identity(),
-                                                  Eigen::Vector3d::Zero(), options_);
+  const AlignmentSystem free_sys =
+      buildAlignment(frames, R_c0_b, pbar, p_bc, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), options_);
   if (!solveAlignment(free_sys, &x, &scale_std)) {
     out.status = VisualInertialInitStatus::kInsufficientExcitation;
     out.message = "linear alignment is singular: velocity and scale are not separable (no acceleration)";
@@ -318,8 +327,8 @@ VisualInertialInitResult VisualInertialInitializer::initialize(std::vector<InitF
   }
 
   // 5. Gravity-aligned world frame: g -> [0 0 -|g|], yaw of the first body pose removed.
-  Eigen::Matrix3d R_w_c0 = Eigen::Quaterniond::FromTwoVectors(g.normalized(), -Eigen::Vector3d::UnitZ())
-                               .toRotationMatrix();
+  Eigen::Matrix3d R_w_c0 =
+      Eigen::Quaterniond::FromTwoVectors(g.normalized(), -Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Matrix3d R_w_b0 = R_w_c0 * R_c0_b[0];
   const double yaw = std::atan2(R_w_b0(1, 0), R_w_b0(0, 0));
   R_w_c0 = Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R_w_c0;
@@ -336,8 +345,8 @@ VisualInertialInitResult VisualInertialInitializer::initialize(std::vector<InitF
   for (const auto& [id, p] : sfm.points_c0) out.points_w[id] = R_w_c0 * (s * p - p_c0_b0);
   std::ostringstream os;
   os << "scale " << s << " (relative 1-sigma " << out.scale_relative_std << "), gyro bias " << bg.transpose()
-     << ", accelerometer bias " << out.accel_bias.transpose()
-     << ", SfM RMS " << sfm.rms_px << " px, " << sfm.points_c0.size() << " points";
+     << ", accelerometer bias " << out.accel_bias.transpose() << ", SfM RMS " << sfm.rms_px << " px, "
+     << sfm.points_c0.size() << " points";
   out.message = os.str();
   out.status = VisualInertialInitStatus::kSuccess;
   return out;

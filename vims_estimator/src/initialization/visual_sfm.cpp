@@ -177,8 +177,10 @@ VisualSfmResult solveVisualSfm(const std::vector<InitFrame>& frames, double foca
   for (int k = 0; k < n; ++k) {
     for (const auto& [id, uv] : frames[k].observations) {
       auto it = span.find(id);
-      if (it == span.end()) span[id] = {k, k};
-      else it->second.second = k;
+      if (it == span.end())
+        span[id] = {k, k};
+      else
+        it->second.second = k;
     }
   }
   for (const auto& [id, s] : span) {
@@ -209,9 +211,9 @@ VisualSfmResult solveVisualSfm(const std::vector<InitFrame>& frames, double foca
     for (const auto& [id, uv] : frames[k].observations) {
       auto it = xyz.find(id);
       if (it == xyz.end()) continue;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SfmReprojection, 2, 4, 3, 3>(
-                                   new SfmReprojection(uv, focal_px)),
-                               loss, q[k].data(), t[k].data(), it->second.data());
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<SfmReprojection, 2, 4, 3, 3>(new SfmReprojection(uv, focal_px)), loss,
+          q[k].data(), t[k].data(), it->second.data());
       ++residuals;
     }
   }

@@ -45,10 +45,10 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
-#include <vims/FilteredSonarRange.h>
-#include <visualization_msgs/Marker.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <vims/FilteredSonarRange.h>
 #include <vims/Keyframe.h>
+#include <visualization_msgs/Marker.h>
 
 #include <algorithm>
 #include <cmath>
@@ -68,8 +68,8 @@
 #include "vims_ros/bounded_queue.h"
 #include "vims_ros/conversions.h"
 #include "vims_ros/keyframe_conversions.h"
-#include "vims_ros/odometry_conversions.h"
 #include "vims_ros/node_config.h"
+#include "vims_ros/odometry_conversions.h"
 #include "vims_ros/ros_logger.h"
 #include "vims_ros/sonar_conversions.h"
 #include "vims_system/system_config.h"
@@ -127,8 +127,9 @@ class EstimatorNode {
     sonar_sub_ = nh.subscribe("sonar/filtered", 50, &EstimatorNode::onSonar, this);
     if (sequence_.pressure) {
       pressure_sub_ = nh.subscribe(settings_.pressure_topic, 100, &EstimatorNode::onPressure, this);
-      ROS_INFO_STREAM("estimator: pressure depth from " << pressure_sub_.getTopic()
-                                                        << (config.estimator.pressure.enabled ? "" : " (estimator.pressure.enabled false: ignored)"));
+      ROS_INFO_STREAM("estimator: pressure depth from "
+                      << pressure_sub_.getTopic()
+                      << (config.estimator.pressure.enabled ? "" : " (estimator.pressure.enabled false: ignored)"));
     }
     worker_ = std::thread([this] { processLoop(); });
     ROS_INFO_STREAM("estimator: " << image_sub_.getTopic() << " + " << imu_sub_.getTopic() << " + "
@@ -215,9 +216,9 @@ class EstimatorNode {
 
   void enqueue(InputEvent event, const char* what) {
     if (!queue_.push(std::move(event))) {
-      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, what << " dropped: the processing queue is full ("
-                                                         << queue_.capacity() << " inputs; " << queue_.dropped()
-                                                         << " dropped so far): the estimator is slower than real time");
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS,
+                               what << " dropped: the processing queue is full (" << queue_.capacity() << " inputs; "
+                                    << queue_.dropped() << " dropped so far): the estimator is slower than real time");
     }
   }
 
@@ -431,8 +432,9 @@ int main(int argc, char** argv) {
     settings.image_topic = pnh.param<std::string>("image_topic", sequence.topics.image);
     settings.imu_topic = pnh.param<std::string>("imu_topic", sequence.topics.imu);
     settings.pressure_topic = pnh.param<std::string>("pressure_topic", sequence.topics.pressure);
-    ROS_INFO_STREAM("tracker options:\n" << config.tracker.toYaml() << "\nestimator options:\n"
-                                         << config.estimator.toYaml());
+    ROS_INFO_STREAM("tracker options:\n"
+                    << config.tracker.toYaml() << "\nestimator options:\n"
+                    << config.estimator.toYaml());
     node = std::make_unique<EstimatorNode>(nh, sequence, config, settings);
   } catch (const vims::ConfigError& e) {
     ROS_FATAL_STREAM("configuration error: " << e.what());

@@ -51,18 +51,23 @@ int main(int argc, char** argv) {
   int repeat = 3;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--sequence" && i + 1 < argc) sequence = argv[++i];
-    else if (arg == "--repeat" && i + 1 < argc) repeat = std::atoi(argv[++i]);
-    else if (arg == "--config" && i + 1 < argc) config_file = argv[++i];
-    else return usage();
+    if (arg == "--sequence" && i + 1 < argc)
+      sequence = argv[++i];
+    else if (arg == "--repeat" && i + 1 < argc)
+      repeat = std::atoi(argv[++i]);
+    else if (arg == "--config" && i + 1 < argc)
+      config_file = argv[++i];
+    else
+      return usage();
   }
   if (sequence.empty() || repeat < 1) return usage();
   try {
     const vims::SequencePaths paths = vims::SequencePaths::resolve(sequence);
     const vims::SequenceConfig config = vims::SequenceConfig::load(paths.yaml);
     const vims::TrackerOptions options =
-        config_file.empty() ? vims::TrackerOptions()
-                            : vims::TrackerOptions::fromReader(vims::ConfigReader::fromFile(config_file).childOrEmpty("tracker"));
+        config_file.empty()
+            ? vims::TrackerOptions()
+            : vims::TrackerOptions::fromReader(vims::ConfigReader::fromFile(config_file).childOrEmpty("tracker"));
     std::vector<vims::CameraFrame> frames;
     vims::SequenceBagReader reader(paths.bag, config);
     vims::SequenceBagReader::Handlers handlers;
@@ -106,14 +111,14 @@ int main(int argc, char** argv) {
       const double n = static_cast<double>(frames.size());
       std::cout << std::fixed << std::setprecision(3) << "pass " << pass + 1 << ": cpu ms/frame " << 1e3 * cpu_s / n
                 << " (p50 " << percentile(cpu_ms, 0.5) << ", p99 " << percentile(cpu_ms, 0.99) << ")"
-                << "; wall ms p50: preprocess " << percentile(preprocess_ms, 0.5) << ", klt "
-                << percentile(klt_ms, 0.5) << ", ransac " << percentile(ransac_ms, 0.5) << ", detect "
-                << percentile(detect_ms, 0.5) << ", total " << percentile(total_ms, 0.5) << "\n";
+                << "; wall ms p50: preprocess " << percentile(preprocess_ms, 0.5) << ", klt " << percentile(klt_ms, 0.5)
+                << ", ransac " << percentile(ransac_ms, 0.5) << ", detect " << percentile(detect_ms, 0.5) << ", total "
+                << percentile(total_ms, 0.5) << "\n";
       if (pass == 0) {
-        std::cout << "tracks: frames " << frames.size() << ", features/frame " << std::setprecision(2)
-                  << features / n << ", detected " << detected << ", lost_klt " << lost_klt << ", rejected_fb "
-                  << rejected_fb << ", rejected_ransac " << rejected_ransac << ", checksum " << std::hex
-                  << checksum << std::dec << "\n";
+        std::cout << "tracks: frames " << frames.size() << ", features/frame " << std::setprecision(2) << features / n
+                  << ", detected " << detected << ", lost_klt " << lost_klt << ", rejected_fb " << rejected_fb
+                  << ", rejected_ransac " << rejected_ransac << ", checksum " << std::hex << checksum << std::dec
+                  << "\n";
       }
     }
     std::cout << std::fixed << std::setprecision(3) << "BENCH_TRACKER frames=" << frames.size()

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <opencv2/video/tracking.hpp>
 
-#include "vims_tracking/tracking_stages.h"
 #include "vims_common/timing.h"
+#include "vims_tracking/tracking_stages.h"
 
 namespace vims {
 
@@ -37,26 +37,34 @@ double sceneContrast(const cv::Mat& image) {
 
 const char* frameStatusName(FrameStatus status) {
   switch (status) {
-    case FrameStatus::kTracked: return "tracked";
-    case FrameStatus::kStarted: return "started";
-    case FrameStatus::kResetOnStamp: return "reset_on_stamp";
-    case FrameStatus::kResetOnGap: return "reset_on_gap";
-    case FrameStatus::kBlank: return "blank";
-    case FrameStatus::kRejectedEmpty: return "rejected_empty";
-    case FrameStatus::kRejectedType: return "rejected_type";
-    case FrameStatus::kRejectedSize: return "rejected_size";
-    case FrameStatus::kRejectedStamp: return "rejected_stamp";
+    case FrameStatus::kTracked:
+      return "tracked";
+    case FrameStatus::kStarted:
+      return "started";
+    case FrameStatus::kResetOnStamp:
+      return "reset_on_stamp";
+    case FrameStatus::kResetOnGap:
+      return "reset_on_gap";
+    case FrameStatus::kBlank:
+      return "blank";
+    case FrameStatus::kRejectedEmpty:
+      return "rejected_empty";
+    case FrameStatus::kRejectedType:
+      return "rejected_type";
+    case FrameStatus::kRejectedSize:
+      return "rejected_size";
+    case FrameStatus::kRejectedStamp:
+      return "rejected_stamp";
   }
   return "?";
 }
 
 bool TrackedFrame::accepted() const {
-  return status == FrameStatus::kTracked || status == FrameStatus::kStarted ||
-         status == FrameStatus::kResetOnStamp || status == FrameStatus::kResetOnGap || status == FrameStatus::kBlank;
+  return status == FrameStatus::kTracked || status == FrameStatus::kStarted || status == FrameStatus::kResetOnStamp ||
+         status == FrameStatus::kResetOnGap || status == FrameStatus::kBlank;
 }
 
-FeatureTracker::FeatureTracker(const CameraCalibration& calibration, const TrackerOptions& options,
-                               LoggerPtr logger)
+FeatureTracker::FeatureTracker(const CameraCalibration& calibration, const TrackerOptions& options, LoggerPtr logger)
     : camera_(calibration), options_(options), logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   options_.validate();
   clahe_ = cv::createCLAHE(options_.clahe_clip_limit, cv::Size(options_.clahe_tiles, options_.clahe_tiles));
@@ -88,14 +96,18 @@ TrackedFrame FeatureTracker::process(const CameraFrame& frame) {
     const double warn_t = std::isfinite(frame.t) ? frame.t : last_stamp_;
     std::string why;
     switch (out.status) {
-      case FrameStatus::kRejectedStamp: why = "non-finite stamp"; break;
-      case FrameStatus::kRejectedEmpty: why = "empty image"; break;
+      case FrameStatus::kRejectedStamp:
+        why = "non-finite stamp";
+        break;
+      case FrameStatus::kRejectedEmpty:
+        why = "empty image";
+        break;
       case FrameStatus::kRejectedType:
         why = VIMS_STR("image type " << cv::typeToString(frame.image.type()) << ", expected CV_8UC1 (mono8)");
         break;
       default:
-        why = VIMS_STR("image " << frame.image.cols << "x" << frame.image.rows << ", calibration "
-                                << camera_.width() << "x" << camera_.height());
+        why = VIMS_STR("image " << frame.image.cols << "x" << frame.image.rows << ", calibration " << camera_.width()
+                                << "x" << camera_.height());
         break;
     }
     logger_->warnThrottled(kComponent, frameStatusName(out.status), warn_t, 5.0,
@@ -112,9 +124,9 @@ TrackedFrame FeatureTracker::process(const CameraFrame& frame) {
     reset();
     out.status = FrameStatus::kResetOnStamp;
   } else if (has_last_stamp_ && frame.t - last_stamp_ > options_.max_frame_gap_s) {
-    logger_->warn(kComponent, VIMS_STR("no usable frame for " << frame.t - last_stamp_ << " s (max_frame_gap_s "
-                                                               << options_.max_frame_gap_s
-                                                               << "): all tracks end at t=" << frame.t));
+    logger_->warn(kComponent,
+                  VIMS_STR("no usable frame for " << frame.t - last_stamp_ << " s (max_frame_gap_s "
+                                                  << options_.max_frame_gap_s << "): all tracks end at t=" << frame.t));
     reset();
     out.status = FrameStatus::kResetOnGap;
   } else if (previous_pyramid_.empty()) {
@@ -199,8 +211,8 @@ void FeatureTracker::trackIntoCurrentFrame(double dt, TrackerStats* stats) {
   std::vector<cv::Point2f> current_pixels;
   std::vector<std::uint8_t> forward_ok;
   std::vector<float> klt_error;
-  cv::calcOpticalFlowPyrLK(previous_pyramid_, pyramid, previous_pixels, current_pixels, forward_ok, klt_error,
-                           window, options_.klt_max_level, criteria, 0, options_.klt_min_eigen_threshold);
+  cv::calcOpticalFlowPyrLK(previous_pyramid_, pyramid, previous_pixels, current_pixels, forward_ok, klt_error, window,
+                           options_.klt_max_level, criteria, 0, options_.klt_min_eigen_threshold);
 
   // Forward survivors that stayed inside the border go back for the forward-backward check.
   std::vector<std::size_t> candidates;
@@ -249,8 +261,7 @@ void FeatureTracker::trackIntoCurrentFrame(double dt, TrackerStats* stats) {
   EpipolarCheck epipolar;
   if (options_.ransac_enabled) {
     epipolar = epipolarRansac(previous_normalized, current_normalized, camera_.meanFocal(),
-                              options_.ransac_threshold_px, options_.ransac_confidence,
-                              options_.ransac_max_iterations);
+                              options_.ransac_threshold_px, options_.ransac_confidence, options_.ransac_max_iterations);
   } else {
     epipolar.inlier.assign(consistent.size(), 1);
   }
@@ -299,7 +310,8 @@ void FeatureTracker::detectNewFeatures(const cv::Mat& image, TrackerStats* stats
     pixels[i] = tracks_[i].pixel;
     lengths[i] = tracks_[i].length;
   }
-  const std::vector<std::size_t> kept = thinByDistanceLongestFirst(pixels, lengths, options_.min_distance_px, &occupancy);
+  const std::vector<std::size_t> kept =
+      thinByDistanceLongestFirst(pixels, lengths, options_.min_distance_px, &occupancy);
   stats->dropped_by_mask = static_cast<int>(tracks_.size() - kept.size());
   if (kept.size() != tracks_.size()) {
     std::vector<Track> thinned;
@@ -317,8 +329,9 @@ void FeatureTracker::detectNewFeatures(const cv::Mat& image, TrackerStats* stats
     // Only free regions can take a corner: skipping the rest keeps the candidate list (and its
     // sort) short when most of the image is already covered by tracks.
     makeDetectionImage(image);
-    CornerCandidates candidates = findCornerCandidates(detection_image_, options_.border_px, options_.min_corner_response,
-                                                       options_.min_quality_level, occupancy, &corner_buffers_);
+    CornerCandidates candidates =
+        findCornerCandidates(detection_image_, options_.border_px, options_.min_corner_response,
+                             options_.min_quality_level, occupancy, &corner_buffers_);
     CornerSelectionParams params;
     params.max_corners = wanted;
     params.min_distance_px = options_.min_distance_px;

@@ -55,8 +55,8 @@ void checkRelations(const TrackerOptions& o, Fail&& fail) {
                                    std::to_string(o.detect_min_missing));
   }
   if (o.min_quality_level > o.quality_level) {
-    fail("min_quality_level", "must be <= quality_level (" + formatNumber(o.quality_level) + "), got " +
-                                  formatNumber(o.min_quality_level));
+    fail("min_quality_level",
+         "must be <= quality_level (" + formatNumber(o.quality_level) + "), got " + formatNumber(o.min_quality_level));
   }
 }
 
@@ -74,9 +74,8 @@ TrackerOptions TrackerOptions::fromReader(const ConfigReader& reader) {
       requireInRange(reader, key, static_cast<double>(member), static_cast<double>(lo), static_cast<double>(hi));
     }
   });
-  checkRelations(options, [&](const std::string& key, const std::string& message) -> void {
-    throw reader.error(key, message);
-  });
+  checkRelations(options,
+                 [&](const std::string& key, const std::string& message) -> void { throw reader.error(key, message); });
   return options;
 }
 

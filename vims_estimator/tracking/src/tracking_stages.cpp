@@ -278,8 +278,8 @@ EpipolarCheck epipolarRansac(const std::vector<Eigen::Vector2d>& previous_normal
   std::vector<std::uint8_t> mask;
   cv::Mat fundamental;
   try {
-    fundamental = cv::findFundamentalMat(previous_px, current_px, cv::FM_RANSAC, threshold_px, confidence,
-                                         max_iterations, mask);
+    fundamental =
+        cv::findFundamentalMat(previous_px, current_px, cv::FM_RANSAC, threshold_px, confidence, max_iterations, mask);
   } catch (const cv::Exception&) {
     return check;  // degenerate input OpenCV refuses (e.g. all points identical): keep all, see below
   }

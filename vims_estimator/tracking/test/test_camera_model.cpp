@@ -28,8 +28,8 @@ std::vector<Eigen::Vector2d> pixelsOverImage(const vims::CameraModel& camera, do
     for (double u = 0.0; u <= camera.width() - 1; u += step) pixels.emplace_back(u, v);
   // The four extreme corners (pixel edges), where the distortion is strongest.
   const double w = camera.width() - 0.5, h = camera.height() - 0.5;
-  for (const Eigen::Vector2d& corner : {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(w, -0.5),
-                                        Eigen::Vector2d(-0.5, h), Eigen::Vector2d(w, h)}) {
+  for (const Eigen::Vector2d& corner :
+       {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(w, -0.5), Eigen::Vector2d(-0.5, h), Eigen::Vector2d(w, h)}) {
     pixels.push_back(corner);
   }
   return pixels;

@@ -225,8 +225,8 @@ TEST(FeatureTracker, LampFixedToTheCameraDoesNotMakeLongTracksDrift) {
   raw.clahe_enabled = false;
   raw.klt_min_eigen_threshold = 1e-5;
   const double without = driftUnderLamp(raw, 15);
-  std::cout << "rms error at track age >= 15 under the lamp: flattened " << flattened << " px, CLAHE "
-            << with_clahe << " px, raw " << without << " px\n";
+  std::cout << "rms error at track age >= 15 under the lamp: flattened " << flattened << " px, CLAHE " << with_clahe
+            << " px, raw " << without << " px\n";
   // Measured: flattened 0.31 px, CLAHE 1.07 px, raw 1.71 px.
   EXPECT_LT(flattened, 0.5);
   // The scene does make KLT drift without the flattening (else this test would show nothing).
@@ -466,7 +466,8 @@ TEST(FeatureTracker, MinDistanceMaskSpreadsFeaturesOverTheImage) {
   ASSERT_GE(frame.features.size(), 100u);
   EXPECT_LE(frame.features.size(), static_cast<std::size_t>(options.max_features));
   int cells[4][4] = {};
-  for (const auto& f : frame.features) ++cells[static_cast<int>(f.pixel.y() / (kHeight / 4.0))][static_cast<int>(f.pixel.x() / (kWidth / 4.0))];
+  for (const auto& f : frame.features)
+    ++cells[static_cast<int>(f.pixel.y() / (kHeight / 4.0))][static_cast<int>(f.pixel.x() / (kWidth / 4.0))];
   int populated = 0, fullest = 0;
   for (auto& row : cells)
     for (int c : row) {

@@ -40,7 +40,8 @@ TEST(TrackerOnSequence, Tank30KeepsEnoughLongTracks) {
   const vims::SequencePaths paths = vims::SequencePaths::resolve(dir);
   const vims::SequenceConfig config = vims::SequenceConfig::load(paths.yaml);
 
-  vims::FeatureTracker tracker(config.camera, vims::TrackerOptions(), vims::Logger::stderrLogger(vims::LogLevel::kWarn));
+  vims::FeatureTracker tracker(config.camera, vims::TrackerOptions(),
+                               vims::Logger::stderrLogger(vims::LogLevel::kWarn));
   std::vector<int> features_per_frame;
   std::vector<double> latency_ms, preprocess_ms, klt_ms, ransac_ms, detect_ms;
   std::map<std::uint64_t, int> track_length_by_id;
@@ -79,11 +80,11 @@ TEST(TrackerOnSequence, Tank30KeepsEnoughLongTracks) {
   const double latency_p99 = percentile(latency_ms, 0.99);
   std::cout << std::fixed << std::setprecision(2) << "[tank30] frames " << features_per_frame.size()
             << ", features/frame p10/p50/p90 " << percentile(features_per_frame, 0.1) << "/" << median_features << "/"
-            << percentile(features_per_frame, 0.9) << ", tracks " << track_lengths.size()
-            << ", track length p50/p90 " << median_track_length << "/" << percentile(track_lengths, 0.9)
-            << ", detected " << detected << ", lost KLT " << lost_klt << ", rejected FB " << rejected_fb
-            << ", rejected RANSAC " << rejected_ransac << ", latency ms p50/p99/max " << latency_p50 << "/"
-            << latency_p99 << "/" << percentile(latency_ms, 1.0) << std::endl;
+            << percentile(features_per_frame, 0.9) << ", tracks " << track_lengths.size() << ", track length p50/p90 "
+            << median_track_length << "/" << percentile(track_lengths, 0.9) << ", detected " << detected
+            << ", lost KLT " << lost_klt << ", rejected FB " << rejected_fb << ", rejected RANSAC " << rejected_ransac
+            << ", latency ms p50/p99/max " << latency_p50 << "/" << latency_p99 << "/" << percentile(latency_ms, 1.0)
+            << std::endl;
   std::cout << "[tank30] stage p50 ms: preprocess " << percentile(preprocess_ms, 0.5) << ", KLT "
             << percentile(klt_ms, 0.5) << ", RANSAC " << percentile(ransac_ms, 0.5) << ", detection "
             << percentile(detect_ms, 0.5) << std::endl;
@@ -119,7 +120,8 @@ TEST(TrackerOnSequence, BlackoutEndsTracksAndRecovers) {
   vims::SequenceBagReader::Handlers handlers;
   handlers.image = [&](const vims::CameraFrame& frame) {
     const vims::TrackedFrame out = tracker.process(frame);
-    frames.push_back({frame.t - reader.startTime(), out.status, static_cast<int>(out.features.size()), out.stats.tracked});
+    frames.push_back(
+        {frame.t - reader.startTime(), out.status, static_cast<int>(out.features.size()), out.stats.tracked});
   };
   reader.run(handlers);
   ASSERT_GE(frames.size(), 80u);
@@ -139,7 +141,8 @@ TEST(TrackerOnSequence, BlackoutEndsTracksAndRecovers) {
   }
   EXPECT_GE(blank, 18);
   // The first frame after the blackout starts afresh, the next ones track again.
-  const auto after = std::find_if(frames.begin(), frames.end(), [](const FrameSummary& f) { return f.t >= 6.0 - 1e-6; });
+  const auto after =
+      std::find_if(frames.begin(), frames.end(), [](const FrameSummary& f) { return f.t >= 6.0 - 1e-6; });
   ASSERT_NE(after, frames.end());
   EXPECT_EQ(after->status, vims::FrameStatus::kStarted);
   ASSERT_NE(after + 1, frames.end());

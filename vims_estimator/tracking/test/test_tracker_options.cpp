@@ -19,8 +19,9 @@ std::string errorOf(const std::string& yaml) {
 TEST(TrackerOptions, DefaultsAreValid) { EXPECT_NO_THROW(vims::TrackerOptions().validate()); }
 
 TEST(TrackerOptions, ReadsGivenKeysAndKeepsDefaultsForOthers) {
-  const vims::TrackerOptions o = vims::TrackerOptions::fromReader(vims::ConfigReader::fromString(
-      "tracker: {max_features: 200, fb_max_error_px: 0.5, clahe_enabled: false}").child("tracker"));
+  const vims::TrackerOptions o = vims::TrackerOptions::fromReader(
+      vims::ConfigReader::fromString("tracker: {max_features: 200, fb_max_error_px: 0.5, clahe_enabled: false}")
+          .child("tracker"));
   EXPECT_EQ(o.max_features, 200);
   EXPECT_DOUBLE_EQ(o.fb_max_error_px, 0.5);
   EXPECT_FALSE(o.clahe_enabled);

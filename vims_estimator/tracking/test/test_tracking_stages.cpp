@@ -1,9 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-
-#include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -13,8 +12,8 @@ TEST(EpipolarRansac, RemovesInjectedWrongMatchesInA3dScene) {
   // Points at 1..6 m (a rough seabed with rocks) seen from two poses 0.15 m and 3 deg apart.
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> lateral(-1.0, 1.0), depth(1.0, 6.0), shift(6.0, 40.0), sign(-1.0, 1.0);
-  const Eigen::Matrix3d R_c2_c1 = Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(0.2, 1.0, 0.1).normalized())
-                                      .toRotationMatrix();
+  const Eigen::Matrix3d R_c2_c1 =
+      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(0.2, 1.0, 0.1).normalized()).toRotationMatrix();
   const Eigen::Vector3d t_c2_c1(0.12, -0.05, 0.07);
   const double focal = 460.0;
   std::vector<Eigen::Vector2d> previous, current;

@@ -35,9 +35,9 @@ struct AblationRow {
   std::size_t revisit_events = 0;
   std::size_t revisit_closed = 0;
 
-  double trans_rmse_m = 0.0;   ///< global.tum ATE RMSE after SE3 alignment
-  double trans_pct = 0.0;      ///< of the ground-truth distance
-  double rot_rmse_deg = 0.0;   ///< global.tum rotation error RMSE after SE3 alignment
+  double trans_rmse_m = 0.0;      ///< global.tum ATE RMSE after SE3 alignment
+  double trans_pct = 0.0;         ///< of the ground-truth distance
+  double rot_rmse_deg = 0.0;      ///< global.tum rotation error RMSE after SE3 alignment
   double vio_trans_rmse_m = 0.0;  ///< vio.tum ATE RMSE (SE3), NaN when absent
   /// Query stamps of the correct accepted loops, in file order (magneticStageRecall).
   std::vector<double> correct_loop_query_times;
@@ -51,8 +51,8 @@ struct AblationRow {
 /// Evaluates the outputs of one vims_offline run (global.tum, vio.tum, loops.csv, summary.yaml)
 /// against `gt`. Never throws: a missing or unusable global.tum gives a row with ok = false and
 /// the reason; missing loops.csv / vio.tum / summary keys give NaN / has_loops = false.
-AblationRow evaluateAblationRun(const std::string& mode, const std::string& run_dir,
-                                const std::vector<StampedPose>& gt, const EvalOptions& options);
+AblationRow evaluateAblationRun(const std::string& mode, const std::string& run_dir, const std::vector<StampedPose>& gt,
+                                const EvalOptions& options);
 
 /// Reads sequence duration / wall time from summary.yaml defensively: `real_time_factor`, else
 /// `sequence_duration_s / wall_time_s`; NaN when neither is there or the file is unreadable.
@@ -72,10 +72,10 @@ std::string ablationSummaryLine(const AblationRow& row);
 /// `vision` (w/o Alter.: BoW over the whole map) closed with a correct loop, how many `full`
 /// (magnetic candidates first) also closed, at the same keyframe and within `window_s`.
 struct MagneticStageRecall {
-  std::size_t vision_queries = 0;    ///< queries closed by the vision-only run
-  std::size_t same_query = 0;        ///< of them, closed by full at the same keyframe
-  std::size_t within_window = 0;     ///< of them, full has a correct loop within window_s
-  std::size_t full_only = 0;         ///< queries full closed that the vision-only run did not
+  std::size_t vision_queries = 0;  ///< queries closed by the vision-only run
+  std::size_t same_query = 0;      ///< of them, closed by full at the same keyframe
+  std::size_t within_window = 0;   ///< of them, full has a correct loop within window_s
+  std::size_t full_only = 0;       ///< queries full closed that the vision-only run did not
   double window_s = 5.0;
 };
 MagneticStageRecall magneticStageRecall(const AblationRow& full, const AblationRow& vision, double window_s = 5.0);
@@ -85,7 +85,7 @@ struct AblationClaim {
   std::string name;       ///< e.g. "full_lowest_trans"
   std::string statement;  ///< the claim in words
   bool holds = false;
-  std::string detail;     ///< the figures it was judged on
+  std::string detail;  ///< the figures it was judged on
 };
 /// The paper's ablation order, for the rows present (a claim whose modes are missing or failed is
 /// left out): the full system's global trajectory is not worse than its VIO (global / VIO <= 1);
@@ -102,26 +102,25 @@ struct AblationOptions {
   std::string sequence_dir;
   std::string out_dir;
   std::vector<std::string> modes = ablationModes();
-  int jobs = 2;                 ///< vims_offline processes at a time
-  std::string offline_binary;   ///< path of vims_offline
-  std::string offline_config;   ///< passed as --config when not empty
-  bool run = true;              ///< false: evaluate existing OUT/<mode>/ runs only
-  bool figures = true;          ///< trajectory and map figures (and place recognition when possible)
-  std::string package_root;     ///< for vocabulary paths (place recognition)
+  int jobs = 2;                ///< vims_offline processes at a time
+  std::string offline_binary;  ///< path of vims_offline
+  std::string offline_config;  ///< passed as --config when not empty
+  bool run = true;             ///< false: evaluate existing OUT/<mode>/ runs only
+  bool figures = true;         ///< trajectory and map figures (and place recognition when possible)
+  std::string package_root;    ///< for vocabulary paths (place recognition)
   EvalOptions eval;
 };
 
 /// Result of running one child process.
 struct ProcessResult {
-  int exit_code = -1;      ///< exit status, or -1 when it could not start / was killed
-  std::string error;       ///< start failure or signal, empty on a normal exit
+  int exit_code = -1;  ///< exit status, or -1 when it could not start / was killed
+  std::string error;   ///< start failure or signal, empty on a normal exit
 };
 
 /// Runs `commands` (argv vectors), at most `jobs` at a time, each with stdout and stderr to
 /// its log file. Returns one result per command, in order. Never throws for a failing command.
 std::vector<ProcessResult> runProcesses(const std::vector<std::vector<std::string>>& commands,
-                                        const std::vector<std::string>& log_files, int jobs,
-                                        std::ostream& progress);
+                                        const std::vector<std::string>& log_files, int jobs, std::ostream& progress);
 
 /// The directory of the running executable (/proc/self/exe), empty when unknown.
 std::string executableDir();

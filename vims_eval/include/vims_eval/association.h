@@ -22,9 +22,9 @@ namespace vims {
 namespace eval {
 
 struct AssociationOptions {
-  double max_dt_s = 0.01;      ///< nearest-stamp tolerance (evo's --t_max_diff default)
-  bool interpolate = false;    ///< interpolate ground truth at the estimate's stamps
-  double max_gt_gap_s = 0.5;   ///< interpolation never bridges a ground-truth gap longer than this
+  double max_dt_s = 0.01;     ///< nearest-stamp tolerance (evo's --t_max_diff default)
+  bool interpolate = false;   ///< interpolate ground truth at the estimate's stamps
+  double max_gt_gap_s = 0.5;  ///< interpolation never bridges a ground-truth gap longer than this
 };
 
 /// Equal-length, time-ordered pose lists: gt[i] (T_w_b, ground truth world w) and est[i]

@@ -43,9 +43,9 @@ std::vector<LoopRecord> parseLoopCsv(std::istream& in, const std::string& source
 std::vector<LoopRecord> readLoopCsv(const std::string& path);
 
 struct LoopScoringOptions {
-  double trans_tol_m = 0.5;    ///< |t_est - t_gt| of T_match_query below which a loop is correct
-  double rot_tol_deg = 5.0;    ///< angle(R_gt^T R_est) of T_match_query below which a loop is correct
-  double max_gt_gap_s = 0.5;   ///< ground truth is interpolated only across gaps up to this
+  double trans_tol_m = 0.5;   ///< |t_est - t_gt| of T_match_query below which a loop is correct
+  double rot_tol_deg = 5.0;   ///< angle(R_gt^T R_est) of T_match_query below which a loop is correct
+  double max_gt_gap_s = 0.5;  ///< ground truth is interpolated only across gaps up to this
 };
 
 struct ScoredLoop {
@@ -60,7 +60,7 @@ struct ScoredLoop {
 };
 
 struct LoopScore {
-  std::size_t verifications = 0;     ///< rows of the log (verification attempts)
+  std::size_t verifications = 0;  ///< rows of the log (verification attempts)
   std::size_t accepted = 0;
   std::size_t correct = 0;           ///< accepted and within tolerance
   std::size_t wrong = 0;             ///< accepted and outside tolerance

@@ -49,7 +49,7 @@ struct MapGrowthRow {
   double t = 0.0;
   bool visual_submap = false;  ///< keypoints stored (a loop candidate); else culled or empty
   std::size_t keypoints = 0;
-  std::size_t bytes = 0;       ///< visualSubmapMemoryBytes: keypoints, descriptors, BoW vector
+  std::size_t bytes = 0;  ///< visualSubmapMemoryBytes: keypoints, descriptors, BoW vector
 };
 std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map);
 

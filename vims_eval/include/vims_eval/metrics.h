@@ -69,14 +69,14 @@ RpeResult computeRpe(const std::vector<StampedPose>& gt, const std::vector<Stamp
 /// Errors of one estimate after one kind of alignment.
 struct AlignedErrors {
   AlignmentMode mode = AlignmentMode::kSe3;
-  Similarity3 S_w_v;                    ///< the alignment applied to the estimate
+  Similarity3 S_w_v;                     ///< the alignment applied to the estimate
   std::vector<StampedPose> est_aligned;  ///< T_w_b of the estimate in the ground-truth world
   std::vector<double> trans_errors_m;
   std::vector<double> rot_errors_deg;
-  ErrorStats ate;       ///< translation ATE [m]
+  ErrorStats ate;             ///< translation ATE [m]
   double ate_rmse_pct = 0.0;  ///< ate.rmse as a percentage of the ground-truth distance travelled
-  ErrorStats rot;       ///< rotation error [deg]
-  ErrorStats tilt;      ///< tilt (roll/pitch) error [deg], tiltErrorsDeg
+  ErrorStats rot;             ///< rotation error [deg]
+  ErrorStats tilt;            ///< tilt (roll/pitch) error [deg], tiltErrorsDeg
   RpeResult rpe;
 };
 
@@ -92,8 +92,8 @@ struct TrajectoryEvalOptions {
 struct TrajectoryEvaluation {
   std::string label;
   AssociatedTrajectories associated;
-  double gt_distance_m = 0.0;  ///< ground-truth path length over the associated poses
-  double duration_s = 0.0;     ///< time between the first and the last associated pose
+  double gt_distance_m = 0.0;          ///< ground-truth path length over the associated poses
+  double duration_s = 0.0;             ///< time between the first and the last associated pose
   std::vector<AlignedErrors> results;  ///< one per requested alignment, in the requested order
 
   const AlignedErrors& primary() const { return results.front(); }

@@ -5,9 +5,8 @@
 /// is scored by four methods (Mag-ORB, Mag, ORB, BRIEF) and labelled true when the ground-truth
 /// positions are within a radius. Definitions in docs/evaluation.md, "Place recognition".
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -33,7 +32,7 @@ struct PrCurve {
   /// Thresholds descending; every distinct finite score is a threshold, the stored curve keeps
   /// one point per 0.001 change of precision or recall (and the last one).
   std::vector<PrPoint> points;
-  PrPoint best;               ///< the point of maximum F0.5 (threshold +inf, nothing recognised, if none)
+  PrPoint best;  ///< the point of maximum F0.5 (threshold +inf, nothing recognised, if none)
   double best_f05 = 0.0;
 };
 
@@ -46,7 +45,13 @@ double fBeta(double precision, double recall, double beta);
 PrCurve computePrCurve(const std::string& method, const std::vector<float>& scores, const std::vector<uint8_t>& truth);
 
 /// Recognition outcome of one (query, historical) cell.
-enum class PairOutcome : uint8_t { kExcluded = 0, kTrueNegative = 1, kFalseNegative = 2, kFalsePositive = 3, kTruePositive = 4 };
+enum class PairOutcome : uint8_t {
+  kExcluded = 0,
+  kTrueNegative = 1,
+  kFalseNegative = 2,
+  kFalsePositive = 3,
+  kTruePositive = 4
+};
 
 /// Outcome matrix (rows = historical index y, cols = query index x; CV_8UC1 of PairOutcome),
 /// `num_keyframes` square, cells not in `pairs` kExcluded. A pair is recognised when its score

@@ -22,9 +22,9 @@ namespace vims {
 namespace eval {
 
 struct RevisitOptions {
-  double radius_m = 1.5;   ///< horizontal distance to an earlier position
-  double min_gap_s = 60.0; ///< how much earlier that position must have been occupied
-  double margin_s = 0.0;   ///< slack around an event when looking for a closing loop
+  double radius_m = 1.5;    ///< horizontal distance to an earlier position
+  double min_gap_s = 60.0;  ///< how much earlier that position must have been occupied
+  double margin_s = 0.0;    ///< slack around an event when looking for a closing loop
 };
 
 struct RevisitEvent {
@@ -32,7 +32,7 @@ struct RevisitEvent {
   double t_end = 0.0;
   std::size_t first_index = 0;  ///< ground-truth sample indices of the run (inclusive)
   std::size_t last_index = 0;
-  double t_previous = 0.0;      ///< time of an earlier visit within radius_m of the first sample
+  double t_previous = 0.0;  ///< time of an earlier visit within radius_m of the first sample
   Eigen::Vector3d p_w_start = Eigen::Vector3d::Zero();
   double height_change_m = 0.0;     ///< z of the first sample minus z of the earlier visit
   double heading_change_deg = 0.0;  ///< |yaw difference| between them, in [0, 180]

@@ -44,9 +44,9 @@
 namespace vims {
 
 struct MovingAverageLength {
-  int periods = 0;         ///< coil periods covered
-  int samples = 0;         ///< N
-  double residual = 0.0;   ///< |periods * rate / f - N| [samples]: 0 when exact
+  int periods = 0;        ///< coil periods covered
+  int samples = 0;        ///< N
+  double residual = 0.0;  ///< |periods * rate / f - N| [samples]: 0 when exact
 };
 /// The smallest number of coil periods in [min_periods, 4 min_periods] whose length is closest
 /// to a whole number of samples (first exact match wins).
@@ -54,10 +54,10 @@ MovingAverageLength chooseMovingAverage(double rate_hz, double coil_frequency_hz
 
 struct SignatureExtractorStats {
   long mag_samples = 0;
-  long duplicates = 0;     ///< dropped repeated stamps
-  long filled_slots = 0;   ///< missing samples filled as invalid
+  long duplicates = 0;    ///< dropped repeated stamps
+  long filled_slots = 0;  ///< missing samples filled as invalid
   long nonfinite = 0;
-  long resets = 0;         ///< clock backwards or gaps longer than max_fill_gap_s
+  long resets = 0;  ///< clock backwards or gaps longer than max_fill_gap_s
   long windows = 0;
   long valid_windows = 0;
 };

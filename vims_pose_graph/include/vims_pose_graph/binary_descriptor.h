@@ -7,10 +7,9 @@
 /// (copied with memcpy), so the file format and cv::Mat round trips are byte-exact on any host;
 /// the four 64-bit words are only a view for popcount.
 
-#include <opencv2/core.hpp>
-
 #include <array>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <vector>
 
 namespace vims {

@@ -10,10 +10,9 @@
 /// original image scale, with NO orientation. That it is not rotation invariant is the point of
 /// the baseline: a downward camera revisiting a place with another heading sees a rotated image.
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
-
-#include <array>
 #include <string>
 #include <vector>
 
@@ -31,9 +30,9 @@ DescriptorType descriptorTypeFromString(const std::string& name);
 
 struct FeatureExtractionOptions {
   DescriptorType descriptor = DescriptorType::kOrb;
-  int max_features = 500;        ///< strongest keypoints kept per image
-  double orb_scale_factor = 1.2; ///< ORB pyramid ratio between levels
-  int orb_levels = 8;            ///< ORB pyramid levels (1 = single scale)
+  int max_features = 500;         ///< strongest keypoints kept per image
+  double orb_scale_factor = 1.2;  ///< ORB pyramid ratio between levels
+  int orb_levels = 8;             ///< ORB pyramid levels (1 = single scale)
   /// FAST intensity threshold (ORB and BRIEF keypoints). 10, not the usual 20: underwater images
   /// are low-contrast, and 20 leaves ~80 corners per simulated seabed frame (10: ~330).
   int fast_threshold = 10;

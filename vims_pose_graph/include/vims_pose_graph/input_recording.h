@@ -14,7 +14,6 @@
 ///  - geomagnetic: t f64, field_body 3 f64.
 
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <fstream>
 #include <string>

@@ -5,13 +5,11 @@
 /// (the paper's corner replication across pyramid scales). docs/pose_graph.md, "Visual submaps".
 
 #include <Eigen/Core>
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
-
 #include <Eigen/Geometry>
-
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
 #include <vector>
 
 #include "vims_common/keyframe_data.h"
@@ -31,10 +29,10 @@ namespace vims {
 /// usable corners gives an empty submap (the keyframe is still a pose-graph node but never a
 /// loop candidate).
 struct VisualSubmap {
-  std::vector<cv::KeyPoint> keypoints;         ///< distorted pixels; octave = pyramid level
-  std::vector<BinaryDescriptor> descriptors;   ///< descriptors[i] of keypoints[i]
-  std::vector<Eigen::Vector2d> normalized;     ///< undistorted (x/z, y/z) of keypoints[i]
-  BowVector bow;                               ///< of the conventional (detected) keypoints
+  std::vector<cv::KeyPoint> keypoints;        ///< distorted pixels; octave = pyramid level
+  std::vector<BinaryDescriptor> descriptors;  ///< descriptors[i] of keypoints[i]
+  std::vector<Eigen::Vector2d> normalized;    ///< undistorted (x/z, y/z) of keypoints[i]
+  BowVector bow;                              ///< of the conventional (detected) keypoints
 
   bool empty() const { return keypoints.empty(); }
 };
@@ -43,9 +41,9 @@ struct VisualSubmap {
 /// level where the replicated keypoint survived the Harris test (several per point);
 /// BRIEF: one, at the original scale.
 struct DescribedPoints {
-  std::vector<uint64_t> feature_id;        ///< VIO track id per point
-  std::vector<Eigen::Vector3d> p_odom;     ///< per point, VIO frame of the keyframe's session
-  std::vector<Eigen::Vector2d> pixel;      ///< per point, distorted pixel in the keyframe image
+  std::vector<uint64_t> feature_id;     ///< VIO track id per point
+  std::vector<Eigen::Vector3d> p_odom;  ///< per point, VIO frame of the keyframe's session
+  std::vector<Eigen::Vector2d> pixel;   ///< per point, distorted pixel in the keyframe image
   std::vector<BinaryDescriptor> descriptors;
   std::vector<uint32_t> point_of_descriptor;  ///< owning point of each descriptor
   std::vector<int> level_of_descriptor;       ///< pyramid level of each descriptor

@@ -48,8 +48,8 @@ struct KnownVerticalConsensus {
   int samples = 0;  ///< samples drawn
 };
 KnownVerticalConsensus knownVerticalConsensus(const std::vector<Eigen::Vector3d>& points,
-                                              const std::vector<Eigen::Vector2d>& normalized,
-                                              const Eigen::Matrix3d& A, double threshold, int iterations, int enough,
+                                              const std::vector<Eigen::Vector2d>& normalized, const Eigen::Matrix3d& A,
+                                              double threshold, int iterations, int enough,
                                               std::uint32_t seed = 0x5eed);
 
 /// Samples that suffice to rule out a consensus of `min_inliers` among `num_matches` with a

@@ -32,9 +32,9 @@ LoopClosingMode loopClosingModeFromString(const std::string& name);
 /// name in a results table means exactly one set of stages.
 struct ModeSettings {
   DescriptorType descriptor = DescriptorType::kOrb;  ///< visual submaps and tracked points
-  bool magnetic_stage = true;             ///< magnetic place recognition restricts the BoW search
-  bool verify_all_bow_candidates = false; ///< every BoW candidate above threshold is verified (vi_slam)
-  bool geomagnetic_yaw = true;            ///< geomagnetic yaw factors in the pose graph
+  bool magnetic_stage = true;                        ///< magnetic place recognition restricts the BoW search
+  bool verify_all_bow_candidates = false;            ///< every BoW candidate above threshold is verified (vi_slam)
+  bool geomagnetic_yaw = true;                       ///< geomagnetic yaw factors in the pose graph
 
   static ModeSettings forMode(LoopClosingMode mode);
 };
@@ -340,8 +340,8 @@ struct PoseGraphManagerOptions {
   /// and yaw [deg] (the AUV moves < 0.5 m/s and turns < 10 deg/s). Loops and yaw factors dominate it.
   double session_link_position_sigma_m = 1.0;
   double session_link_position_sigma_per_s = 0.5;
-  double session_link_yaw_sigma_rad = 20.0 * M_PI / 180.0;       ///< key session_link_yaw_sigma_deg
-  double session_link_yaw_sigma_per_s_rad = 10.0 * M_PI / 180.0; ///< key session_link_yaw_sigma_per_s_deg
+  double session_link_yaw_sigma_rad = 20.0 * M_PI / 180.0;        ///< key session_link_yaw_sigma_deg
+  double session_link_yaw_sigma_per_s_rad = 10.0 * M_PI / 180.0;  ///< key session_link_yaw_sigma_per_s_deg
   /// Non-empty: every input fed to the manager is also written to this file (input_recording.h),
   /// for re-running loop closing offline on a run's real keyframes (vims_pose_graph_replay).
   std::string record_inputs_path;

@@ -14,7 +14,6 @@
 /// docs/pose_graph.md, "Loop closing".
 
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -24,8 +23,8 @@
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
 #include "vims_pose_graph/keyframe_description.h"
-#include "vims_pose_graph/loop_measurement.h"
 #include "vims_pose_graph/loop_closing_options.h"
+#include "vims_pose_graph/loop_measurement.h"
 #include "vims_pose_graph/multiscale_map.h"
 
 namespace vims {
@@ -64,8 +63,8 @@ struct LoopQuery {
   PoseGraphNodeId node = 0;  ///< the query keyframe (already in the map)
   double t = 0.0;
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();
-  BowVector bow;             ///< of the query image's visual submap
-  DescribedPoints points;    ///< tracked 3D points (VIO frame of the query's session)
+  BowVector bow;           ///< of the query image's visual submap
+  DescribedPoints points;  ///< tracked 3D points (VIO frame of the query's session)
   /// The query keyframe's seabed corners (KeyframeDescriber::describeSeabedCorners), matched in
   /// addition to `points` against candidates seen from higher up
   /// (LoopDetectorOptions::query_seabed_min_level_shift).
@@ -159,8 +158,7 @@ class LoopVerifier {
   /// Checks the match's neighbours; returns the number of confirming neighbours.
   int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
                           const Eigen::Isometry3d& T_bm_odomq,
-                          const std::vector<std::pair<uint32_t, uint32_t>>& inliers,
-                          const LevelWindow& levels) const;
+                          const std::vector<std::pair<uint32_t, uint32_t>>& inliers, const LevelWindow& levels) const;
 
   LoopDetectorOptions options_;
   CameraCalibration camera_;
@@ -174,9 +172,9 @@ struct DetectionResult {
   std::vector<LoopAttempt> attempts;
   std::optional<LoopAttempt> accepted;  ///< the accepted attempt, if any
   bool magnetic_stage_used = false;     ///< the stage ran (mode on and the query has a signature)
-  std::vector<std::pair<uint32_t, double>> magnetic_candidates;  ///< (submap id, distance [T])
-  std::vector<PoseGraphNodeId> bow_pool;                         ///< keyframes BoW was allowed to score
-  std::vector<std::pair<PoseGraphNodeId, double>> bow_candidates; ///< verified, in order (node, score)
+  std::vector<std::pair<uint32_t, double>> magnetic_candidates;    ///< (submap id, distance [T])
+  std::vector<PoseGraphNodeId> bow_pool;                           ///< keyframes BoW was allowed to score
+  std::vector<std::pair<PoseGraphNodeId, double>> bow_candidates;  ///< verified, in order (node, score)
   /// Verified after the BoW candidates (LoopDetectorOptions::proximity_candidates), nearest first.
   std::vector<PoseGraphNodeId> proximity_candidates;
 };

@@ -8,7 +8,6 @@
 /// varies less than the threshold. docs/pose_graph.md, "Magnetic submaps".
 
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -20,16 +19,16 @@ namespace vims {
 /// A valid signature placed on the trajectory.
 struct PlacedSignature {
   double t = 0.0;
-  uint32_t session = 0;                                  ///< map session of the keyframes it was placed with
-  Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();      ///< body position at t in the session's VIO frame
+  uint32_t session = 0;                                     ///< map session of the keyframes it was placed with
+  Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();         ///< body position at t in the session's VIO frame
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< amplitude vector [T], ENU
-  PoseGraphNodeId nearest_node = 0;                      ///< keyframe nearest in time
+  PoseGraphNodeId nearest_node = 0;                         ///< keyframe nearest in time
 };
 
 /// A closed group, before it is stored in the map.
 struct MagneticSubmapDraft {
-  PoseGraphNodeId tied_node = 0;      ///< keyframe nearest in time to the median member
-  double t = 0.0;                     ///< median member's time
+  PoseGraphNodeId tied_node = 0;  ///< keyframe nearest in time to the median member
+  double t = 0.0;                 ///< median member's time
   uint32_t session = 0;
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< smoothed signature at the median [T]
   Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();         ///< median member's position (VIO frame)

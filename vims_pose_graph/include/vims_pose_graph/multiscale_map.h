@@ -16,7 +16,6 @@
 /// Not thread-safe; the PoseGraphManager serialises access.
 
 #include <Eigen/Geometry>
-
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -53,10 +52,10 @@ struct MapSession {
 
 /// One keyframe of the map.
 struct MapNode {
-  PoseGraphNode pose;        ///< t, T_odom_b, fixed pitch/roll, optimised p_w_b and yaw_w_b
-  uint32_t session = 0;      ///< index into MultiScaleMap::sessions()
-  VisualSubmap visual;       ///< may be empty (no usable corners)
-  int64_t bow_image = -1;    ///< BowDatabase id, -1 without a visual submap
+  PoseGraphNode pose;      ///< t, T_odom_b, fixed pitch/roll, optimised p_w_b and yaw_w_b
+  uint32_t session = 0;    ///< index into MultiScaleMap::sessions()
+  VisualSubmap visual;     ///< may be empty (no usable corners)
+  int64_t bow_image = -1;  ///< BowDatabase id, -1 without a visual submap
   /// The magnetometer was producing signature windows around this keyframe's time. Keyframes
   /// without (magnetometer off) cannot be clustered by magnetism, so the magnetic stage leaves
   /// them in the visual search instead of making them unreachable.
@@ -112,9 +111,9 @@ class MultiScaleMap {
   /// the two components (call moveComponent first if the query's component is to be re-placed).
   /// `measurement_sigma`: the loop's own standard deviations of (p_li_j, yaw_i_j) (LoopAttempt::
   /// sigma), used with PoseGraphOptions::loop_sigma_from_inliers; NaN = none (constant sigmas).
-  LoopEdgeId addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query, const Eigen::Isometry3d& T_match_query,
-                         const Eigen::Vector4d& measurement_sigma =
-                             Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  LoopEdgeId addLoopEdge(
+      PoseGraphNodeId match, PoseGraphNodeId query, const Eigen::Isometry3d& T_match_query,
+      const Eigen::Vector4d& measurement_sigma = Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN()));
   /// A geomagnetic yaw factor from the low-passed geomagnetic field in the BODY frame. False
   /// when the field is not finite or its horizontal part is below mag_min_horizontal_field_tesla.
   /// The first accepted measurement of a component without loaded sessions rotates that

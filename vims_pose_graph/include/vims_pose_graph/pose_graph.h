@@ -17,8 +17,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "vims_common/config_reader.h"
@@ -45,9 +45,9 @@ struct PoseGraphOptions {
   /// keyframes is far below their actual drift, a correct loop looks like an outlier to the
   /// robust loss and is discounted (docs/pose_graph.md, "Choosing the sigmas").
   double odometry_position_sigma_m = 0.05;
-  double odometry_position_sigma_per_m = 0.05;                ///< [m/m]
-  double odometry_yaw_sigma_rad = 0.1 * M_PI / 180.0;         ///< key odometry_yaw_sigma_deg
-  double odometry_yaw_sigma_per_m_rad = 0.5 * M_PI / 180.0;   ///< [rad/m], key odometry_yaw_sigma_per_m_deg
+  double odometry_position_sigma_per_m = 0.05;               ///< [m/m]
+  double odometry_yaw_sigma_rad = 0.1 * M_PI / 180.0;        ///< key odometry_yaw_sigma_deg
+  double odometry_yaw_sigma_per_m_rad = 0.5 * M_PI / 180.0;  ///< [rad/m], key odometry_yaw_sigma_per_m_deg
 
   /// Loop edges: sigmas of a PnP-verified relative pose, and the robust loss applied to the
   /// whitened residual (scale in sigmas). Cauchy's cost grows only logarithmically, so a wrong
@@ -119,12 +119,12 @@ struct PoseGraphOptions {
 
 /// One keyframe.
 struct PoseGraphNode {
-  double t = 0.0;                                             ///< keyframe time [s]
+  double t = 0.0;                                              ///< keyframe time [s]
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  ///< VIO pose (local frame)
-  double pitch = 0.0;  ///< from the VIO, fixed [rad]
-  double roll = 0.0;   ///< from the VIO, fixed [rad]
-  Eigen::Vector3d p_w_b = Eigen::Vector3d::Zero();  ///< world position (optimised)
-  double yaw_w_b = 0.0;                             ///< world yaw (optimised)
+  double pitch = 0.0;                                          ///< from the VIO, fixed [rad]
+  double roll = 0.0;                                           ///< from the VIO, fixed [rad]
+  Eigen::Vector3d p_w_b = Eigen::Vector3d::Zero();             ///< world position (optimised)
+  double yaw_w_b = 0.0;                                        ///< world yaw (optimised)
 
   Eigen::Isometry3d T_w_b() const;
 };
@@ -161,7 +161,7 @@ DepthMeasurement depthMeasurementAt(PoseGraphNodeId node, const PoseGraphNode& n
 struct YawMeasurement {
   PoseGraphNodeId node = 0;
   Eigen::Vector2d u_l = Eigen::Vector2d::UnitX();  ///< levelled horizontal field direction
-  double heading_rad = 0.0;                         ///< the yaw it measures (for reports)
+  double heading_rad = 0.0;                        ///< the yaw it measures (for reports)
 };
 
 /// Everything solve() needs, copied out of the graph.
@@ -194,14 +194,14 @@ struct LoopEdgeResidual {
 
 /// One Ceres run of a solve (Cauchy loops: a Huber stage, then a Cauchy stage).
 struct PoseGraphStageReport {
-  std::string loop_loss;             ///< the loop loss of this stage
+  std::string loop_loss;  ///< the loop loss of this stage
   int iterations = 0;
-  double build_time_s = 0.0;         ///< building the Ceres problem
-  double solver_time_s = 0.0;        ///< ceres::Solve, all of it
-  double preprocessor_time_s = 0.0;  ///< of which in Ceres' preprocessing (ordering, symbolic factorisation)
-  double linear_solver_time_s = 0.0; ///< of which in the linear solver
-  double jacobian_time_s = 0.0;      ///< of which evaluating residuals and Jacobians
-  std::string termination;           ///< Ceres' message
+  double build_time_s = 0.0;          ///< building the Ceres problem
+  double solver_time_s = 0.0;         ///< ceres::Solve, all of it
+  double preprocessor_time_s = 0.0;   ///< of which in Ceres' preprocessing (ordering, symbolic factorisation)
+  double linear_solver_time_s = 0.0;  ///< of which in the linear solver
+  double jacobian_time_s = 0.0;       ///< of which evaluating residuals and Jacobians
+  std::string termination;            ///< Ceres' message
 };
 
 struct PoseGraphReport {

@@ -23,7 +23,7 @@ namespace vims {
 /// world frame, so VIO measurements can constrain world poses directly.
 struct RelativePose4Dof {
   Eigen::Vector3d p_li_j = Eigen::Vector3d::Zero();  ///< Rz(yaw_i)^T (p_j - p_i) [m]
-  double yaw_i_j = 0.0;                               ///< wrap(yaw_j - yaw_i) [rad]
+  double yaw_i_j = 0.0;                              ///< wrap(yaw_j - yaw_i) [rad]
 };
 
 /// From two poses in one gravity-aligned frame `a` (e.g. the VIO frame: T_odom_i, T_odom_j).

@@ -22,7 +22,6 @@
 /// processing and optimiser threads).
 
 #include <Eigen/Geometry>
-
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -32,8 +31,8 @@
 
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
-#include "vims_common/sequence_config.h"
 #include "vims_common/magnetic_signature.h"
+#include "vims_common/sequence_config.h"
 #include "vims_pose_graph/input_recording.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/loop_closing_options.h"

@@ -5,7 +5,6 @@
 /// (PoseGraphManagerCore, SolveScheduler, PoseGraphThreadRunner) share them without the facade.
 
 #include <Eigen/Geometry>
-
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -50,7 +49,7 @@ struct MagneticSubmapMarker {
   Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  ///< the tied keyframe's optimised position
   double radius_m = 0.0;
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< [T]
-  std::vector<PoseGraphNodeId> clustered;  ///< visual submaps within radius + cluster margin
+  std::vector<PoseGraphNodeId> clustered;                   ///< visual submaps within radius + cluster margin
 };
 struct MapContents {
   std::vector<VisualSubmapMarker> visual;
@@ -65,7 +64,7 @@ struct PoseGraphManagerStats {
   /// (LoopDetectorOptions::redundant_submap_radius_m); they still ran their loop query.
   size_t culled_submaps = 0;
   size_t loaded_keyframes = 0;
-  size_t sessions = 0;            ///< of this run
+  size_t sessions = 0;  ///< of this run
   size_t loop_queries = 0;
   size_t loop_attempts = 0;
   size_t loops_accepted = 0;
@@ -90,7 +89,7 @@ struct OptimisationRecord {
   /// solve started from, and whether it was a local loop solve (see PoseGraphOptions).
   double max_new_loop_sigmas = 0.0;
   bool local_loop_solve = false;
-  PoseGraphReport report;     ///< without loop residuals
+  PoseGraphReport report;  ///< without loop residuals
 };
 
 /// Timing of the optimisations so far.

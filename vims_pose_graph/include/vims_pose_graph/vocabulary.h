@@ -59,10 +59,10 @@ class VocabularyFileError : public std::runtime_error {
 
 /// Options of vocabulary training (`vims_vocab_train`, or a `vocabulary:` YAML mapping).
 struct VocabularyTrainingOptions {
-  int branching = 8;   ///< k: children per node (k^L words at most)
-  int levels = 4;      ///< L: depth of the tree below the root
-  uint64_t seed = 1;   ///< seeds k-means++; the same seed and input give the same tree
-  int max_iterations = 20;  ///< k-medians iterations per node (stops earlier when assignments settle)
+  int branching = 8;                    ///< k: children per node (k^L words at most)
+  int levels = 4;                       ///< L: depth of the tree below the root
+  uint64_t seed = 1;                    ///< seeds k-means++; the same seed and input give the same tree
+  int max_iterations = 20;              ///< k-medians iterations per node (stops earlier when assignments settle)
   std::string descriptor_type = "orb";  ///< label stored in the file ("orb" or "brief")
 
   /// Keys: branching, levels, seed, max_iterations, descriptor_type. Unknown keys and
@@ -126,12 +126,12 @@ class BinaryVocabulary {
   static constexpr uint32_t kNoParent = 0xFFFFFFFFu;
 
   struct Node {
-    BinaryDescriptor descriptor;    ///< cluster median (unused for the root)
+    BinaryDescriptor descriptor;  ///< cluster median (unused for the root)
     uint32_t parent = kNoParent;
-    uint32_t first_child = 0;       ///< children are stored contiguously
+    uint32_t first_child = 0;  ///< children are stored contiguously
     uint32_t num_children = 0;
-    uint32_t depth = 0;             ///< 0 = root
-    uint32_t word = kNoWord;        ///< word id when the node is a leaf
+    uint32_t depth = 0;       ///< 0 = root
+    uint32_t word = kNoWord;  ///< word id when the node is a leaf
   };
 
   /// Descends from the root; fills the node at `record_depth` (if > 0) into *recorded.
@@ -146,8 +146,8 @@ class BinaryVocabulary {
   std::string descriptor_type_;
   uint64_t num_training_images_ = 0;
   std::vector<Node> nodes_;
-  std::vector<uint32_t> words_;    ///< word id -> leaf node
-  std::vector<double> weights_;    ///< word id -> IDF weight
+  std::vector<uint32_t> words_;  ///< word id -> leaf node
+  std::vector<double> weights_;  ///< word id -> IDF weight
 };
 
 }  // namespace vims

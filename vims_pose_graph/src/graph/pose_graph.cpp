@@ -77,13 +77,30 @@ RobustLoss robustLossFromString(const std::string& name) {
 // ---------------------------------------------------------------------------------------------
 
 PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"odometry_position_sigma_m", "odometry_position_sigma_per_m", "odometry_yaw_sigma_deg",
-                            "odometry_yaw_sigma_per_m_deg", "loop_position_sigma_m", "loop_yaw_sigma_deg",
-                            "loop_sigma_from_inliers", "loop_position_sigma_floor_m", "loop_yaw_sigma_floor_deg", "loop_loss",
-                            "loop_loss_scale", "mag_yaw_sigma_deg", "mag_loss", "mag_loss_scale",
-                            "mag_min_horizontal_field_tesla", "max_iterations", "max_solver_time_s", "num_threads",
-                            "function_tolerance", "online_function_tolerance", "loop_solve_from_earliest_node",
-                            "window_keyframes", "loop_local_solve_max_sigmas", "depth_sigma_m"});
+  reader.rejectUnknownKeys({"odometry_position_sigma_m",
+                            "odometry_position_sigma_per_m",
+                            "odometry_yaw_sigma_deg",
+                            "odometry_yaw_sigma_per_m_deg",
+                            "loop_position_sigma_m",
+                            "loop_yaw_sigma_deg",
+                            "loop_sigma_from_inliers",
+                            "loop_position_sigma_floor_m",
+                            "loop_yaw_sigma_floor_deg",
+                            "loop_loss",
+                            "loop_loss_scale",
+                            "mag_yaw_sigma_deg",
+                            "mag_loss",
+                            "mag_loss_scale",
+                            "mag_min_horizontal_field_tesla",
+                            "max_iterations",
+                            "max_solver_time_s",
+                            "num_threads",
+                            "function_tolerance",
+                            "online_function_tolerance",
+                            "loop_solve_from_earliest_node",
+                            "window_keyframes",
+                            "loop_local_solve_max_sigmas",
+                            "depth_sigma_m"});
   PoseGraphOptions o;
   auto positive = [&](const char* key, double fallback) {
     const double v = reader.get<double>(key, fallback);
@@ -106,7 +123,8 @@ PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
   o.odometry_position_sigma_m = positive("odometry_position_sigma_m", o.odometry_position_sigma_m);
   o.odometry_position_sigma_per_m = nonNegative("odometry_position_sigma_per_m", o.odometry_position_sigma_per_m);
   o.odometry_yaw_sigma_rad = kDeg * positive("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_rad / kDeg);
-  o.odometry_yaw_sigma_per_m_rad = kDeg * nonNegative("odometry_yaw_sigma_per_m_deg", o.odometry_yaw_sigma_per_m_rad / kDeg);
+  o.odometry_yaw_sigma_per_m_rad =
+      kDeg * nonNegative("odometry_yaw_sigma_per_m_deg", o.odometry_yaw_sigma_per_m_rad / kDeg);
   o.loop_position_sigma_m = positive("loop_position_sigma_m", o.loop_position_sigma_m);
   o.loop_yaw_sigma_rad = kDeg * positive("loop_yaw_sigma_deg", o.loop_yaw_sigma_rad / kDeg);
   o.loop_sigma_from_inliers = reader.get<bool>("loop_sigma_from_inliers", o.loop_sigma_from_inliers);
@@ -159,7 +177,8 @@ void PoseGraphOptions::validate() const {
   check(function_tolerance > 0.0 && function_tolerance < 1.0, "function_tolerance");
   check(online_function_tolerance > 0.0 && online_function_tolerance < 1.0, "online_function_tolerance");
   check(window_keyframes >= 0, "window_keyframes");
-  check(loop_local_solve_max_sigmas >= 0.0 && std::isfinite(loop_local_solve_max_sigmas), "loop_local_solve_max_sigmas");
+  check(loop_local_solve_max_sigmas >= 0.0 && std::isfinite(loop_local_solve_max_sigmas),
+        "loop_local_solve_max_sigmas");
   check(depth_sigma_m > 0.0, "depth_sigma_m");
 }
 
@@ -298,8 +317,8 @@ bool PoseGraph4Dof::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
   double horizontal = 0.0;
   if (!levelledFieldDirection(B_b, n.pitch, n.roll, options_.mag_min_horizontal_field_tesla, &m.u_l, &horizontal)) {
     logger_->warnThrottled(kComponent, "yaw_rejected", n.t, 10.0,
-                           VIMS_STR("geomagnetic yaw measurement rejected at t=" << n.t << ": "
-                                    << (B_b.allFinite() ? "horizontal field " : "non-finite field ")
+                           VIMS_STR("geomagnetic yaw measurement rejected at t="
+                                    << n.t << ": " << (B_b.allFinite() ? "horizontal field " : "non-finite field ")
                                     << horizontal << " T below " << options_.mag_min_horizontal_field_tesla << " T"));
     return false;
   }
@@ -311,8 +330,8 @@ bool PoseGraph4Dof::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
     const double d_yaw = wrapAngle(m.heading_rad - n.yaw_w_b);
     const Eigen::Vector3d p0 = nodes_[0].p_w_b;
     correctNodes(0, d_yaw, p0 - rotationZ(d_yaw) * p0);
-    logger_->info(kComponent, VIMS_STR("first geomagnetic heading " << m.heading_rad / kDeg
-                                       << " deg: graph rotated by " << d_yaw / kDeg << " deg"));
+    logger_->info(kComponent, VIMS_STR("first geomagnetic heading " << m.heading_rad / kDeg << " deg: graph rotated by "
+                                                                    << d_yaw / kDeg << " deg"));
   }
   yaw_measurements_.push_back(m);
   return true;
@@ -385,13 +404,17 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
   report.num_loop_edges = s.loop_edges.size();
   report.num_yaw_factors = s.yaw_measurements.size();
   for (const SequentialEdge& e : s.sequential_edges)
-    if (e.from >= n || e.to >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+    if (e.from >= n || e.to >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
   for (const LoopEdge& e : s.loop_edges)
-    if (e.match >= n || e.query >= n) throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+    if (e.match >= n || e.query >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
   for (const YawMeasurement& m : s.yaw_measurements)
-    if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+    if (m.node >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
   for (const DepthMeasurement& m : s.depth_measurements)
-    if (m.node >= n) throw std::invalid_argument("PoseGraph4Dof::solve: depth factor refers to a node outside the snapshot");
+    if (m.node >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: depth factor refers to a node outside the snapshot");
   // Partial solve: nodes before first_free_node are held, and factors between held nodes only
   // are left out (they cannot change anything).
   const size_t first_free = std::min(s.first_free_node, n);
@@ -431,13 +454,14 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
       problem.AddResidualBlock(new RelativePose4DofFactor(z, sqrt_info), loss, sol.p_w_b[i].data(), &sol.yaw_w_b[i],
                                sol.p_w_b[j].data(), &sol.yaw_w_b[j]);
     };
-    for (const SequentialEdge& e : s.sequential_edges) addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
+    for (const SequentialEdge& e : s.sequential_edges)
+      addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
     for (const LoopEdge& e : s.loop_edges) addRelative(e.match, e.query, e.measurement, e.sqrt_information, loop_loss);
     for (const YawMeasurement& m : s.yaw_measurements) {
       if (!isFree(m.node)) continue;
       addNodeBlocks(m.node);
-      problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad), mag_loss.get(),
-                               &sol.yaw_w_b[m.node]);
+      problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad),
+                               mag_loss.get(), &sol.yaw_w_b[m.node]);
     }
     // Depth factors tie the free nodes' heights to the water surface, whose height is a state
     // (initialised from the first depth when the snapshot has none).
@@ -556,8 +580,9 @@ DepthMeasurement depthMeasurementAt(PoseGraphNodeId node, const PoseGraphNode& n
   DepthMeasurement m;
   m.node = node;
   m.depth_m = depth_m;
-  const Eigen::Matrix3d R_rp = (Eigen::AngleAxisd(n.pitch, Eigen::Vector3d::UnitY()) *
-                                Eigen::AngleAxisd(n.roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d R_rp =
+      (Eigen::AngleAxisd(n.pitch, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(n.roll, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   m.port_offset_z = (R_rp * p_b_port).z();
   return m;
 }
@@ -566,7 +591,8 @@ bool PoseGraph4Dof::addDepthMeasurement(PoseGraphNodeId node, double depth_m, co
   checkNode(node, "addDepthMeasurement");
   const PoseGraphNode& n = nodes_[node];
   if (!std::isfinite(depth_m) || !p_b_port.allFinite()) {
-    if (logger_) logger_->warnThrottled(kComponent, "depth_nan", n.t, 10.0, "non-finite pressure depth: no depth factor");
+    if (logger_)
+      logger_->warnThrottled(kComponent, "depth_nan", n.t, 10.0, "non-finite pressure depth: no depth factor");
     return false;
   }
   const DepthMeasurement m = depthMeasurementAt(node, n, depth_m, p_b_port);
@@ -580,9 +606,9 @@ PoseGraphReport PoseGraph4Dof::optimise() {
   applySolution(solution);
   const PoseGraphReport& r = solution.report;
   logger_->debug(kComponent, VIMS_STR("optimised " << r.num_nodes << " nodes, " << r.num_loop_edges << " loops, "
-                                      << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost << " -> "
-                                      << r.final_cost << " in " << r.iterations << " iterations, "
-                                      << r.solve_time_s * 1e3 << " ms"));
+                                                   << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost
+                                                   << " -> " << r.final_cost << " in " << r.iterations
+                                                   << " iterations, " << r.solve_time_s * 1e3 << " ms"));
   return r;
 }
 

@@ -55,9 +55,9 @@ bool RelativePose4DofFactor::Evaluate(double const* const* parameters, double* r
   Eigen::Matrix<double, 4, 3> J_p_i, J_p_j;
   Eigen::Vector4d J_yaw_i, J_yaw_j;
   const bool want = jacobians != nullptr;
-  const Eigen::Vector4d r = relativePose4DofResidual(p_w_i, yaw_w_i, p_w_j, yaw_w_j, measurement_,
-                                                     want ? &J_p_i : nullptr, want ? &J_yaw_i : nullptr,
-                                                     want ? &J_p_j : nullptr, want ? &J_yaw_j : nullptr);
+  const Eigen::Vector4d r =
+      relativePose4DofResidual(p_w_i, yaw_w_i, p_w_j, yaw_w_j, measurement_, want ? &J_p_i : nullptr,
+                               want ? &J_yaw_i : nullptr, want ? &J_p_j : nullptr, want ? &J_yaw_j : nullptr);
   Eigen::Map<Eigen::Vector4d> r_whitened(residuals);
   r_whitened = sqrt_information_.asDiagonal() * r;
   if (!want) return true;
@@ -109,7 +109,7 @@ Eigen::Vector2d geomagneticYawResidual(double yaw_w_b, const Eigen::Vector2d& u_
                                        Eigen::Vector2d* d_r_d_yaw) {
   const double c = std::cos(yaw_w_b), s = std::sin(yaw_w_b);
   const Eigen::Vector2d u_w(c * u_l.x() - s * u_l.y(), s * u_l.x() + c * u_l.y());  // R2(yaw) u_l
-  if (d_r_d_yaw) *d_r_d_yaw << -u_w.y(), u_w.x();  // d R2/dyaw u = R2 [0 -1; 1 0] u
+  if (d_r_d_yaw) *d_r_d_yaw << -u_w.y(), u_w.x();                                   // d R2/dyaw u = R2 [0 -1; 1 0] u
   return u_w - north_enu;
 }
 

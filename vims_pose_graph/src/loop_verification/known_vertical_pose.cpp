@@ -66,9 +66,8 @@ int countInliers(const std::vector<Eigen::Vector3d>& points, const std::vector<E
 }
 
 KnownVerticalConsensus knownVerticalConsensus(const std::vector<Eigen::Vector3d>& points,
-                                              const std::vector<Eigen::Vector2d>& normalized,
-                                              const Eigen::Matrix3d& A, double threshold, int iterations, int enough,
-                                              std::uint32_t seed) {
+                                              const std::vector<Eigen::Vector2d>& normalized, const Eigen::Matrix3d& A,
+                                              double threshold, int iterations, int enough, std::uint32_t seed) {
   KnownVerticalConsensus result;
   const std::size_t n = std::min(points.size(), normalized.size());
   if (n < 2) return result;
@@ -79,7 +78,8 @@ KnownVerticalConsensus knownVerticalConsensus(const std::vector<Eigen::Vector3d>
     std::size_t j = pick(rng);
     if (i == j) j = (j + 1) % n;
     ++result.samples;
-    for (const VerticalPoseHypothesis& h : solveKnownVerticalPose(points[i], points[j], normalized[i], normalized[j], A))
+    for (const VerticalPoseHypothesis& h :
+         solveKnownVerticalPose(points[i], points[j], normalized[i], normalized[j], A))
       result.inliers = std::max(result.inliers, countInliers(points, normalized, h, threshold));
   }
   return result;

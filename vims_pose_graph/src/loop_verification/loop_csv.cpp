@@ -16,7 +16,10 @@ std::string optional(double v, const char* format) {
 }
 }  // namespace
 
-const char* loopCsvHeader() { return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,sigma_yaw_deg"; }
+const char* loopCsvHeader() {
+  return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,"
+         "sigma_yaw_deg";
+}
 
 std::string formatLoopCsvRow(const LoopAttempt& a) {
   Eigen::Quaterniond q(a.T_match_query.linear());

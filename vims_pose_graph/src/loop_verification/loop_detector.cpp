@@ -1,13 +1,12 @@
 #include "vims_pose_graph/loop_detector.h"
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <iomanip>
 #include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <set>
 #include <stdexcept>
 
@@ -55,13 +54,14 @@ class DescriptorsByOctave {
     for (int o = 0; o < kOctaves; ++o) {
       begin_[static_cast<size_t>(o)] = flat_.size();
       for (uint32_t d : descriptor_ids)
-        if (levels.admits(points.level_of_descriptor[d], o))
-          flat_.push_back(points.descriptors[d]);
+        if (levels.admits(points.level_of_descriptor[d], o)) flat_.push_back(points.descriptors[d]);
     }
     begin_[kOctaves] = flat_.size();
   }
   static bool covers(int octave) { return octave >= 0 && octave < kOctaves; }
-  bool empty(int octave) const { return begin_[static_cast<size_t>(octave)] == begin_[static_cast<size_t>(octave) + 1]; }
+  bool empty(int octave) const {
+    return begin_[static_cast<size_t>(octave)] == begin_[static_cast<size_t>(octave) + 1];
+  }
   const BinaryDescriptor* begin(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave)]; }
   const BinaryDescriptor* end(int octave) const { return flat_.data() + begin_[static_cast<size_t>(octave) + 1]; }
 
@@ -162,9 +162,8 @@ VIMS_POPCOUNT_DISPATCH size_t distancesToKeypoints(const DescribedPoints& points
         }
       }
     }
-    if (group_best_distance < best_distance ||
-        (group_best_distance == best_distance && best_distance < 257 &&
-         keypoints.index[group_best] < keypoints.index[best])) {
+    if (group_best_distance < best_distance || (group_best_distance == best_distance && best_distance < 257 &&
+                                                keypoints.index[group_best] < keypoints.index[best])) {
       best_distance = group_best_distance;
       best = group_best;
     }
@@ -182,8 +181,8 @@ VIMS_POPCOUNT_DISPATCH bool hasMatchingKeypointNear(const DescribedPoints& point
     const double dx = submap.keypoints[k].pt.x - uv.x();
     const double dy = submap.keypoints[k].pt.y - uv.y();
     if (dx * dx + dy * dy > radius2) continue;
-    if (pointDistance(points, descriptor_ids, submap.descriptors[k], submap.keypoints[k].octave,
-                      levels) <= max_distance)
+    if (pointDistance(points, descriptor_ids, submap.descriptors[k], submap.keypoints[k].octave, levels) <=
+        max_distance)
       return true;
   }
   return false;
@@ -315,9 +314,8 @@ LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalib
 LevelWindow LoopVerifier::levelWindow(const LoopQuery& query, const MultiScaleMap& map,
                                       PoseGraphNodeId candidate) const {
   const LevelWindow around = LevelWindow::around(options_.match_max_level_difference);
-  if (!options_.match_level_from_altitude || features_.descriptor != DescriptorType::kOrb ||
-      features_.orb_levels < 2 || query.node >= map.numNodes() || candidate >= map.numNodes() ||
-      !map.sameComponent(query.node, candidate))
+  if (!options_.match_level_from_altitude || features_.descriptor != DescriptorType::kOrb || features_.orb_levels < 2 ||
+      query.node >= map.numNodes() || candidate >= map.numNodes() || !map.sameComponent(query.node, candidate))
     return around;
   const double depth_query = medianQueryDepth(query.points, query.T_odom_b * T_b_c_);
   // Same place, same seabed: the candidate camera is as much farther from it as it is higher.
@@ -345,9 +343,8 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     mergeDescribedPoints(&with_seabed, query.seabed_points);
   }
   const DescribedPoints& points = use_seabed ? with_seabed : query.points;
-  const std::vector<PointMatch> matches =
-      matchPointsToKeypoints(points, sub, options_.match_ratio, options_.match_max_distance,
-                             options_.match_duplicate_radius_px, levels);
+  const std::vector<PointMatch> matches = matchPointsToKeypoints(
+      points, sub, options_.match_ratio, options_.match_max_distance, options_.match_duplicate_radius_px, levels);
   r.num_matches = static_cast<int>(matches.size());
   if (r.num_matches < options_.pnp_min_inliers) {
     r.stage = LoopStage::kMatching;
@@ -373,9 +370,9 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   // residuals here (docs/pose_graph.md, "Known-vertical consensus").
   if (options_.pnp_vertical_check_threshold_scale > 0.0) {
     const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_b_c_).linear();
-    const int samples = std::min(options_.pnp_iterations,
-                                 ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
-                                                          options_.pnp_confidence, /*sample_size=*/2));
+    const int samples = std::min(
+        options_.pnp_iterations,
+        ransacIterationsToReject(matches.size(), options_.pnp_min_inliers, options_.pnp_confidence, /*sample_size=*/2));
     const KnownVerticalConsensus consensus =
         knownVerticalConsensus(points_3d, normalized, A, options_.pnp_vertical_check_threshold_scale * threshold,
                                samples, options_.pnp_min_inliers);
@@ -405,9 +402,9 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     // come with probability pnp_confidence (x3, see ransacIterationsToReject). Once an acceptable
     // consensus is found, OpenCV's adaptive stop ends the search within that many anyway; the cap
     // only shortens the search for consensus sets that are not there.
-    const int iterations = std::min(options_.pnp_iterations,
-                                    ransacIterationsToReject(matches.size(), options_.pnp_min_inliers,
-                                                             options_.pnp_confidence, /*sample_size=*/4));
+    const int iterations = std::min(
+        options_.pnp_iterations,
+        ransacIterationsToReject(matches.size(), options_.pnp_min_inliers, options_.pnp_confidence, /*sample_size=*/4));
     ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, iterations,
                             static_cast<float>(threshold), options_.pnp_confidence, ransac_inliers, cv::SOLVEPNP_AP3P);
   } catch (const cv::Exception&) {
@@ -481,7 +478,8 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
       geometry.points_odom_query.push_back(points.p_odom[point]);
       geometry.normalized_match.push_back(sub.normalized[keypoint]);
     }
-    r.refined = refineLoopMeasurement(geometry, r.T_match_query, query.T_odom_b, T_b_c_, cand.pose.pitch, cand.pose.roll);
+    r.refined =
+        refineLoopMeasurement(geometry, r.T_match_query, query.T_odom_b, T_b_c_, cand.pose.pitch, cand.pose.roll);
     // The covisibility check below keeps the PnP pose: it tests the match, not the edge.
     if (r.refined) r.T_match_query = r.refined->T_match_query;
   }
@@ -605,8 +603,8 @@ bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeI
 DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const MultiScaleMap& map) const {
   DetectionResult res;
   const BowDatabase* db = map.bowDatabase();
-  if (db == nullptr || query.bow.empty() ||
-      query.points.numPoints() < static_cast<size_t>(options_.pnp_min_inliers) || query.node >= map.numNodes())
+  if (db == nullptr || query.bow.empty() || query.points.numPoints() < static_cast<size_t>(options_.pnp_min_inliers) ||
+      query.node >= map.numNodes())
     return res;
 
   auto eligible = [&](PoseGraphNodeId n) {
@@ -731,10 +729,10 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     if (v.refined) a.sigma = v.refined->covariance.diagonal().cwiseSqrt();
     a.accepted = v.stage == LoopStage::kAccepted;
     res.attempts.push_back(a);
-    logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop attempt t_query=" << query.t
-                                                  << " t_match=" << a.t_match << " bow=" << score
-                                                  << " matches=" << v.num_matches << " inliers=" << v.num_inliers
-                                                  << " -> " << toString(v.stage)));
+    logger_->debug(kComponent,
+                   VIMS_STR(std::fixed << std::setprecision(3) << "loop attempt t_query=" << query.t
+                                       << " t_match=" << a.t_match << " bow=" << score << " matches=" << v.num_matches
+                                       << " inliers=" << v.num_inliers << " -> " << toString(v.stage)));
     if (a.accepted) {
       res.accepted = a;
       break;

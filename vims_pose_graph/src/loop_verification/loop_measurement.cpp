@@ -1,7 +1,6 @@
 #include "vims_pose_graph/loop_measurement.h"
 
 #include <Eigen/Cholesky>
-
 #include <cmath>
 
 #include "vims_pose_graph/angles.h"

@@ -1,9 +1,8 @@
 #include "vims_pose_graph/input_recording.h"
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <cmath>
 #include <cstring>
+#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 #include <vector>
 

@@ -131,19 +131,47 @@ std::string MagneticSubmapOptions::toYaml() const {
 // ---------------------------------------------------------------------------------------------
 
 LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"exclude_recent_keyframes", "exclude_recent_s", "redundant_submap_radius_m",
-                            "redundant_submap_max_height_difference_m", "keep_culled_bow_vectors", "query_signature_max_dt_s",
-                            "mag_distance_relative", "mag_distance_floor_tesla", "mag_max_candidates",
-                            "bow_min_score", "bow_max_candidates", "bow_max_candidates_all", "harris_threshold",
-                            "submap_include_tracked_corners", "submap_dense_corners", "query_local_map_keyframes",
-                            "submap_corner_min_distance_px", "submap_corner_max_level", "match_ratio", "match_max_distance",
-                            "match_max_level_difference", "match_duplicate_radius_px", "match_level_from_altitude",
-                            "match_predicted_level_tolerance", "proximity_candidates", "proximity_radius_m",
-                            "submap_dense_corners_per_level", "query_seabed_corners", "query_seabed_min_level_shift",
-                            "pnp_reprojection_px", "pnp_iterations", "pnp_confidence", "pnp_min_inliers",
-                            "pnp_max_tilt_error_deg", "pnp_known_vertical_refinement", "pnp_vertical_check_threshold_scale",
-                            "covisibility_neighbours", "covisibility_min_points", "covisibility_min_ratio",
-                            "covisibility_min_neighbours", "covisibility_search_radius_px",
+  reader.rejectUnknownKeys({"exclude_recent_keyframes",
+                            "exclude_recent_s",
+                            "redundant_submap_radius_m",
+                            "redundant_submap_max_height_difference_m",
+                            "keep_culled_bow_vectors",
+                            "query_signature_max_dt_s",
+                            "mag_distance_relative",
+                            "mag_distance_floor_tesla",
+                            "mag_max_candidates",
+                            "bow_min_score",
+                            "bow_max_candidates",
+                            "bow_max_candidates_all",
+                            "harris_threshold",
+                            "submap_include_tracked_corners",
+                            "submap_dense_corners",
+                            "query_local_map_keyframes",
+                            "submap_corner_min_distance_px",
+                            "submap_corner_max_level",
+                            "match_ratio",
+                            "match_max_distance",
+                            "match_max_level_difference",
+                            "match_duplicate_radius_px",
+                            "match_level_from_altitude",
+                            "match_predicted_level_tolerance",
+                            "proximity_candidates",
+                            "proximity_radius_m",
+                            "submap_dense_corners_per_level",
+                            "query_seabed_corners",
+                            "query_seabed_min_level_shift",
+                            "pnp_reprojection_px",
+                            "pnp_iterations",
+                            "pnp_confidence",
+                            "pnp_min_inliers",
+                            "pnp_max_tilt_error_deg",
+                            "pnp_known_vertical_refinement",
+                            "pnp_vertical_check_threshold_scale",
+                            "covisibility_neighbours",
+                            "covisibility_min_points",
+                            "covisibility_min_ratio",
+                            "covisibility_min_neighbours",
+                            "covisibility_search_radius_px",
                             "record_prefilter_rejections"});
   LoopDetectorOptions o;
   readInRange(reader, "exclude_recent_keyframes", &o.exclude_recent_keyframes, 0, 1000000);
@@ -151,7 +179,7 @@ LoopDetectorOptions LoopDetectorOptions::fromReader(const ConfigReader& reader) 
   requireNonNegative(reader, "exclude_recent_s", o.exclude_recent_s);
   readInRange(reader, "redundant_submap_radius_m", &o.redundant_submap_radius_m, 0.0, 100.0);
   readInRange(reader, "redundant_submap_max_height_difference_m", &o.redundant_submap_max_height_difference_m, 0.0,
-                 100.0);
+              100.0);
   o.keep_culled_bow_vectors = reader.get<bool>("keep_culled_bow_vectors", o.keep_culled_bow_vectors);
   readInRange(reader, "query_signature_max_dt_s", &o.query_signature_max_dt_s, 0.0, 60.0);
   readInRange(reader, "mag_distance_relative", &o.mag_distance_relative, 0.0, 100.0);
@@ -302,8 +330,8 @@ PoseGraphManagerOptions PoseGraphManagerOptions::fromReader(const ConfigReader& 
   reader.rejectUnknownKeys({"mode", "vocabulary_orb", "vocabulary_brief", "synchronous", "optimise_every_n_keyframes",
                             "magnetic_wait_s", "geomagnetic_max_dt_s", "signature_max_extrapolation_s",
                             "session_link_position_sigma_m", "session_link_position_sigma_per_s",
-                            "session_link_yaw_sigma_deg", "session_link_yaw_sigma_per_s_deg", "record_inputs_path", "features",
-                            "magnetic_submaps", "loop_closing", "pose_graph"});
+                            "session_link_yaw_sigma_deg", "session_link_yaw_sigma_per_s_deg", "record_inputs_path",
+                            "features", "magnetic_submaps", "loop_closing", "pose_graph"});
   PoseGraphManagerOptions o;
   const std::string mode = reader.get<std::string>("mode", toString(o.mode));
   try {
@@ -320,7 +348,8 @@ PoseGraphManagerOptions PoseGraphManagerOptions::fromReader(const ConfigReader& 
   readInRange(reader, "magnetic_wait_s", &o.magnetic_wait_s, 0.0, 600.0);
   readInRange(reader, "geomagnetic_max_dt_s", &o.geomagnetic_max_dt_s, 0.0, 60.0);
   readInRange(reader, "signature_max_extrapolation_s", &o.signature_max_extrapolation_s, 0.0, 60.0);
-  o.session_link_position_sigma_m = reader.get<double>("session_link_position_sigma_m", o.session_link_position_sigma_m);
+  o.session_link_position_sigma_m =
+      reader.get<double>("session_link_position_sigma_m", o.session_link_position_sigma_m);
   requirePositive(reader, "session_link_position_sigma_m", o.session_link_position_sigma_m);
   o.session_link_position_sigma_per_s =
       reader.get<double>("session_link_position_sigma_per_s", o.session_link_position_sigma_per_s);

@@ -37,9 +37,9 @@ PoseGraphManager::PoseGraphManager(const PoseGraphManagerOptions& options, const
       logger_(logger ? std::move(logger) : Logger::nullLogger()),
       core_(std::make_unique<PoseGraphManagerCore>(options, sequence, std::move(vocabulary), logger_)) {
   logger_->info(kComponent, VIMS_STR("mode " << toString(options_.mode) << " (descriptor " << toString(mode_.descriptor)
-                                     << ", magnetic stage " << (mode_.magnetic_stage ? "on" : "off")
-                                     << ", geomagnetic yaw " << (mode_.geomagnetic_yaw ? "on" : "off") << "), "
-                                     << (options_.synchronous ? "synchronous" : "worker threads")));
+                                             << ", magnetic stage " << (mode_.magnetic_stage ? "on" : "off")
+                                             << ", geomagnetic yaw " << (mode_.geomagnetic_yaw ? "on" : "off") << "), "
+                                             << (options_.synchronous ? "synchronous" : "worker threads")));
   if (!options_.record_inputs_path.empty()) {
     recorder_ = std::make_unique<InputRecorder>(options_.record_inputs_path);
     logger_->info(kComponent, "recording the inputs to " + options_.record_inputs_path);

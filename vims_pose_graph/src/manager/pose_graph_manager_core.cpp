@@ -89,7 +89,7 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
     ++stats_.keyframes_rejected;
     logger_->warnThrottled(kComponent, "keyframe_time", kf.t, 5.0,
                            VIMS_STR("keyframe at t=" << kf.t << " dropped: not after the previous keyframe (t="
-                                    << map_.node(run_nodes_.back()).pose.t << ")"));
+                                                     << map_.node(run_nodes_.back()).pose.t << ")"));
     return;
   }
   const bool new_session = !current_session_ || kf.session != current_vio_session_;
@@ -106,8 +106,9 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
       const MapNode& prev = map_.node(previous);
       p_w_b = prev.pose.p_w_b;
       yaw_w_b = prev.pose.yaw_w_b;
-      logger_->warn(kComponent, VIMS_STR("VIO session " << current_vio_session_ << " -> " << kf.session << " at t="
-                                         << kf.t << ": new chain, linked to the previous one by a weak prior"));
+      logger_->warn(kComponent,
+                    VIMS_STR("VIO session " << current_vio_session_ << " -> " << kf.session << " at t=" << kf.t
+                                            << ": new chain, linked to the previous one by a weak prior"));
     } else {
       // The run's first keyframe: the map frame starts as its VIO frame (or, with a loaded map,
       // as a provisional frame until the first loop into the map relocalises the run).
@@ -152,7 +153,8 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
       map_.addSequentialEdge(previous, id);
     }
   }
-  if (kf.port_depth && sequence_.pressure) map_.addDepthMeasurement(id, *kf.port_depth, sequence_.pressure->T_b_p.translation());
+  if (kf.port_depth && sequence_.pressure)
+    map_.addDepthMeasurement(id, *kf.port_depth, sequence_.pressure->T_b_p.translation());
   run_nodes_.push_back(id);
   latest_keyframe_t_ = kf.t;
   ++stats_.keyframes;
@@ -160,7 +162,7 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
     ++stats_.empty_keyframes;
     logger_->warnThrottled(kComponent, "empty_keyframe", kf.t, 5.0,
                            VIMS_STR("keyframe at t=" << kf.t << " has no usable image corners (empty or dark image):"
-                                    << " pose-graph node without visual submap"));
+                                                     << " pose-graph node without visual submap"));
   }
   PendingKeyframe pending;
   pending.node = id;
@@ -201,7 +203,7 @@ void PoseGraphManagerCore::addSignature(const SignatureWindow& w) {
   if (w.t < latest_signature_t_) {
     logger_->warnThrottled(kComponent, "signature_time", w.t, 10.0,
                            VIMS_STR("signature window at t=" << w.t << " dropped: older than the previous one (t="
-                                    << latest_signature_t_ << ")"));
+                                                             << latest_signature_t_ << ")"));
     return;
   }
   StoredWindow s;
@@ -279,12 +281,13 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
   if (!p.has_visual) return;
   if (mode_.magnetic_stage && !signature) {
     if (!magnetometer_heard)
-      logger_->warnThrottled(kComponent, "magnetometer_silent", p.t, 10.0,
-                             VIMS_STR(std::fixed << std::setprecision(3) << "no magnetic signature near t=" << p.t
-                                      << " (magnetometer silent): magnetic stage skipped, loops from vision alone"));
+      logger_->warnThrottled(
+          kComponent, "magnetometer_silent", p.t, 10.0,
+          VIMS_STR(std::fixed << std::setprecision(3) << "no magnetic signature near t=" << p.t
+                              << " (magnetometer silent): magnetic stage skipped, loops from vision alone"));
     else
       logger_->debug(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "no valid signature near t=" << p.t
-                                                    << " (coil not heard): magnetic stage skipped"));
+                                                     << " (coil not heard): magnetic stage skipped"));
   }
 
   LoopQuery query;
@@ -336,16 +339,17 @@ void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
     }
     if ((q_in_reference || m_in_reference) && map_loaded_ && !stats_.relocalised) {
       stats_.relocalised = true;
-      logger_->info(kComponent, VIMS_STR("relocalised into the loaded map at t=" << a.t_query << " (match t="
-                                         << a.t_match << ", " << a.inliers << " inliers)"));
+      logger_->info(kComponent,
+                    VIMS_STR("relocalised into the loaded map at t=" << a.t_query << " (match t=" << a.t_match << ", "
+                                                                     << a.inliers << " inliers)"));
     }
   }
   const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query, a.sigma);
   ++stats_.loops_accepted;
   scheduler_.loopAccepted(loop_id, m, q);
-  logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
-                                                 << " t_match=" << a.t_match << " inliers=" << a.inliers
-                                                 << " bow=" << a.bow_score));
+  logger_->info(kComponent,
+                VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
+                                    << " t_match=" << a.t_match << " inliers=" << a.inliers << " bow=" << a.bow_score));
   requestOptimisation(OptimisationTrigger::kLoop);
 }
 
@@ -431,9 +435,9 @@ void PoseGraphManagerCore::loadMap(const std::string& path) {
 
 void PoseGraphManagerCore::saveMap(const std::string& path) const {
   map_.save(path, options_.vocabularyPath());
-  logger_->info(kComponent, VIMS_STR("saved map '" << path << "': " << map_.numNodes() << " keyframes, "
-                                     << map_.loopEdges().size() << " loops, " << map_.magneticSubmaps().size()
-                                     << " magnetic submaps"));
+  logger_->info(kComponent,
+                VIMS_STR("saved map '" << path << "': " << map_.numNodes() << " keyframes, " << map_.loopEdges().size()
+                                       << " loops, " << map_.magneticSubmaps().size() << " magnetic submaps"));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -7,7 +7,6 @@
 /// describe(), which reads no map state. Its SolveScheduler decides when and what to optimise.
 
 #include <Eigen/Geometry>
-
 #include <deque>
 #include <functional>
 #include <memory>
@@ -15,18 +14,17 @@
 #include <string>
 #include <vector>
 
+#include "solve_scheduler.h"
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
-#include "vims_common/sequence_config.h"
 #include "vims_common/magnetic_signature.h"
+#include "vims_common/sequence_config.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/loop_detector.h"
 #include "vims_pose_graph/magnetic_submap.h"
 #include "vims_pose_graph/multiscale_map.h"
 #include "vims_pose_graph/pose_graph_outputs.h"
-
-#include "solve_scheduler.h"
 
 namespace vims {
 
@@ -128,15 +126,15 @@ class PoseGraphManagerCore {
   MultiScaleMap map_;
   MagneticSubmapBuilder magnetic_builder_;
   bool map_loaded_ = false;
-  std::optional<uint32_t> current_session_;   ///< map session of the run's active VIO session
+  std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;
-  std::vector<PoseGraphNodeId> run_nodes_;    ///< this run's keyframes in time order
+  std::vector<PoseGraphNodeId> run_nodes_;  ///< this run's keyframes in time order
   std::deque<PendingKeyframe> pending_;
   /// Described points of the last processed keyframes, newest last: the local map of the next
   /// query (LoopDetectorOptions::query_local_map_keyframes).
   std::deque<RecentPoints> recent_points_;
-  std::deque<StoredWindow> windows_;          ///< recent signature windows (query lookup, coverage)
-  std::deque<StoredWindow> unplaced_;         ///< windows waiting to be placed on the trajectory
+  std::deque<StoredWindow> windows_;                ///< recent signature windows (query lookup, coverage)
+  std::deque<StoredWindow> unplaced_;               ///< windows waiting to be placed on the trajectory
   std::deque<GeomagneticMeasurement> geomagnetic_;  ///< recent geomagnetic samples
   double latest_signature_t_ = -1e300;
   double latest_geomagnetic_t_ = -1e300;

@@ -82,9 +82,8 @@ void PoseGraphThreadRunner::enqueue(PoseGraphEvent event) {
 
 void PoseGraphThreadRunner::waitForIdle() const {
   std::unique_lock<std::mutex> lk(queue_mutex_);
-  idle_cv_.wait(lk, [&] {
-    return stop_ || (events_.empty() && !processing_busy_ && !optimisation_requested_ && !optimising_);
-  });
+  idle_cv_.wait(
+      lk, [&] { return stop_ || (events_.empty() && !processing_busy_ && !optimisation_requested_ && !optimising_); });
 }
 
 void PoseGraphThreadRunner::requestOptimisation(OptimisationTrigger trigger) {

@@ -7,19 +7,17 @@
 /// a solve. Lock order: the map lock, then the queue lock.
 
 #include <Eigen/Geometry>
-
 #include <condition_variable>
 #include <deque>
 #include <mutex>
 #include <thread>
 #include <variant>
 
+#include "pose_graph_manager_core.h"
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
 #include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/pose_graph_outputs.h"
-
-#include "pose_graph_manager_core.h"
 
 namespace vims {
 

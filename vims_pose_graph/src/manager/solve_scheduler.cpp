@@ -4,8 +4,8 @@
 #include <ctime>
 #include <stdexcept>
 
-#include "vims_pose_graph/pose_graph_factors.h"
 #include "vims_common/timing.h"
+#include "vims_pose_graph/pose_graph_factors.h"
 
 namespace vims {
 
@@ -45,8 +45,7 @@ std::optional<OptimisationTrigger> SolveScheduler::triggerAfterKeyframe() const 
 
 void SolveScheduler::loopAccepted(LoopEdgeId id, PoseGraphNodeId match, PoseGraphNodeId query) {
   loops_awaiting_correction_.push_back(AwaitingLoop{std::chrono::steady_clock::now(), threadCpuSeconds(), id,
-                                                    std::min(match, query), std::max(match, query),
-                                                    run_nodes_.size()});
+                                                    std::min(match, query), std::max(match, query), run_nodes_.size()});
 }
 
 bool SolveScheduler::deferredSolveDue() const {
@@ -95,8 +94,8 @@ SolvePlan SolveScheduler::planSolve(OptimisationTrigger trigger) const {
       if (it == map_.loopEdges().end() || !it->enabled) continue;
       const MapNode& m = map_.node(it->match);
       const MapNode& q = map_.node(it->query);
-      const Eigen::Vector4d r = relativePose4DofResidual(m.pose.p_w_b, m.pose.yaw_w_b, q.pose.p_w_b, q.pose.yaw_w_b,
-                                                         it->measurement);
+      const Eigen::Vector4d r =
+          relativePose4DofResidual(m.pose.p_w_b, m.pose.yaw_w_b, q.pose.p_w_b, q.pose.yaw_w_b, it->measurement);
       plan.max_new_loop_sigmas = std::max(plan.max_new_loop_sigmas, it->sqrt_information.cwiseProduct(r).norm());
     }
     plan.local = g.loop_local_solve_max_sigmas > 0.0 && g.window_keyframes > 0 &&
@@ -107,8 +106,9 @@ SolvePlan SolveScheduler::planSolve(OptimisationTrigger trigger) const {
     } else {
       plan.deferred_included = loops_awaiting_deferred_solve_.size();
       if (g.loop_solve_from_earliest_node)
-        first_free = earliestOf(loops_awaiting_deferred_solve_,
-                                earliestOf(loops_awaiting_correction_, loops_awaiting_correction_.front().earliest_node));
+        first_free =
+            earliestOf(loops_awaiting_deferred_solve_,
+                       earliestOf(loops_awaiting_correction_, loops_awaiting_correction_.front().earliest_node));
     }
   } else if (deferredSolveDue()) {
     // By state, not trigger: asynchronous requests merge, and a request repeated while the
@@ -157,10 +157,11 @@ std::vector<PoseGraphSolution> SolveScheduler::solveSnapshots(const std::vector<
     std::vector<LoopEdgeResidual>().swap(solutions.back().report.loop_residuals);
     record.report = solutions.back().report;
     const PoseGraphReport& r = record.report;
-    logger_->debug(kComponent, VIMS_STR("optimised (" << toString(trigger) << ") " << r.num_nodes << " nodes, "
-                                        << r.num_loop_edges << " loops, " << r.num_yaw_factors << " yaw factors: cost "
-                                        << r.initial_cost << " -> " << r.final_cost << ", " << r.iterations
-                                        << " iterations, " << record.solve_ms << " ms (" << r.message << ")"));
+    logger_->debug(kComponent,
+                   VIMS_STR("optimised (" << toString(trigger) << ") " << r.num_nodes << " nodes, " << r.num_loop_edges
+                                          << " loops, " << r.num_yaw_factors << " yaw factors: cost " << r.initial_cost
+                                          << " -> " << r.final_cost << ", " << r.iterations << " iterations, "
+                                          << record.solve_ms << " ms (" << r.message << ")"));
     records->push_back(std::move(record));
   }
   return solutions;

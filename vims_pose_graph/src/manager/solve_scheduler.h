@@ -73,7 +73,7 @@ class SolveScheduler {
   /// A loop no applied optimisation has included yet (or whose deferred solve is still due).
   struct AwaitingLoop {
     std::chrono::steady_clock::time_point accepted;
-    double accepted_cpu_s;          ///< thread CPU time at acceptance (synchronous mode)
+    double accepted_cpu_s;  ///< thread CPU time at acceptance (synchronous mode)
     LoopEdgeId id;
     PoseGraphNodeId earliest_node;  ///< min(match, query)
     PoseGraphNodeId latest_node;    ///< max(match, query)

@@ -19,7 +19,8 @@ std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<Plac
   const size_t last = std::min(n - 1, median + h);
   // Members' signs are aligned to the median one before averaging (see signatureDistance).
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (size_t i = first; i <= last; ++i) sum += alignedSignature(members[i].signature_enu, members[median].signature_enu);
+  for (size_t i = first; i <= last; ++i)
+    sum += alignedSignature(members[i].signature_enu, members[median].signature_enu);
   const Eigen::Vector3d signature = sum / static_cast<double>(last - first + 1);
 
   // Radius: grow a disc around the median member (horizontal distance: the seabed the camera

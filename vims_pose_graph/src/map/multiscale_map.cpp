@@ -108,8 +108,10 @@ void MultiScaleMap::addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to) 
   e.measurement = relativePose4DofFromPoses(nodes_[from].pose.T_odom_b, nodes_[to].pose.T_odom_b);
   // Same noise model as PoseGraph4Dof::addSequentialEdge: VIO drift grows with the distance.
   const double d = e.measurement.p_li_j.norm();
-  const double sigma_p = std::hypot(graph_options_.odometry_position_sigma_m, graph_options_.odometry_position_sigma_per_m * d);
-  const double sigma_yaw = std::hypot(graph_options_.odometry_yaw_sigma_rad, graph_options_.odometry_yaw_sigma_per_m_rad * d);
+  const double sigma_p =
+      std::hypot(graph_options_.odometry_position_sigma_m, graph_options_.odometry_position_sigma_per_m * d);
+  const double sigma_yaw =
+      std::hypot(graph_options_.odometry_yaw_sigma_rad, graph_options_.odometry_yaw_sigma_per_m_rad * d);
   e.sqrt_information << 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_yaw;
   sequential_edges_.push_back(e);
 }
@@ -130,7 +132,8 @@ void MultiScaleMap::addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, dou
 }
 
 LoopEdgeId MultiScaleMap::addLoopEdge(PoseGraphNodeId match, PoseGraphNodeId query,
-                                      const Eigen::Isometry3d& T_match_query, const Eigen::Vector4d& measurement_sigma) {
+                                      const Eigen::Isometry3d& T_match_query,
+                                      const Eigen::Vector4d& measurement_sigma) {
   checkNode(match, "addLoopEdge");
   checkNode(query, "addLoopEdge");
   if (match == query || !isFinitePose(T_match_query))
@@ -163,10 +166,11 @@ bool MultiScaleMap::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
   double horizontal = 0.0;
   if (!levelledFieldDirection(B_b, n.pose.pitch, n.pose.roll, graph_options_.mag_min_horizontal_field_tesla, &m.u_l,
                               &horizontal)) {
-    logger_->warnThrottled(kComponent, "yaw_rejected", n.pose.t, 10.0,
-                           VIMS_STR("geomagnetic yaw rejected at t=" << n.pose.t << ": "
-                                    << (B_b.allFinite() ? "horizontal field " : "non-finite field ") << horizontal
-                                    << " T below " << graph_options_.mag_min_horizontal_field_tesla << " T"));
+    logger_->warnThrottled(
+        kComponent, "yaw_rejected", n.pose.t, 10.0,
+        VIMS_STR("geomagnetic yaw rejected at t="
+                 << n.pose.t << ": " << (B_b.allFinite() ? "horizontal field " : "non-finite field ") << horizontal
+                 << " T below " << graph_options_.mag_min_horizontal_field_tesla << " T"));
     return false;
   }
   m.heading_rad = headingFromLevelledField(m.u_l, north_enu_);
@@ -183,8 +187,9 @@ bool MultiScaleMap::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
     c.d_yaw = d_yaw;
     c.t = p0 - rotationZ(d_yaw) * p0;
     moveComponent(component, c);
-    logger_->info(kComponent, VIMS_STR("first geomagnetic heading " << m.heading_rad * 180.0 / M_PI
-                                       << " deg: component rotated by " << d_yaw * 180.0 / M_PI << " deg"));
+    logger_->info(kComponent,
+                  VIMS_STR("first geomagnetic heading " << m.heading_rad * 180.0 / M_PI << " deg: component rotated by "
+                                                        << d_yaw * 180.0 / M_PI << " deg"));
   }
   ++session_yaw_count_[n.session];
   yaw_measurements_.push_back(m);
@@ -331,11 +336,12 @@ bool MultiScaleMap::applySolution(const ComponentSnapshot& cs, const PoseGraphSo
   std::map<uint32_t, Correction4Dof> session_correction;
   for (size_t k = 0; k < m; ++k) {
     const MapNode& n = nodes_[cs.ids[k]];
-    session_correction[n.session] = correctionBetween(n.pose.p_w_b, n.pose.yaw_w_b, solution.p_w_b[k], solution.yaw_w_b[k]);
+    session_correction[n.session] =
+        correctionBetween(n.pose.p_w_b, n.pose.yaw_w_b, solution.p_w_b[k], solution.yaw_w_b[k]);
   }
   const MapNode& last = nodes_[cs.ids.back()];
-  const Correction4Dof fallback = correctionBetween(last.pose.p_w_b, last.pose.yaw_w_b, solution.p_w_b.back(),
-                                                    solution.yaw_w_b.back());
+  const Correction4Dof fallback =
+      correctionBetween(last.pose.p_w_b, last.pose.yaw_w_b, solution.p_w_b.back(), solution.yaw_w_b.back());
   std::vector<bool> in_snapshot(nodes_.size(), false);
   for (size_t k = 0; k < m; ++k) {
     MapNode& n = nodes_[cs.ids[k]];

@@ -1,8 +1,6 @@
 /// @file multiscale_map_file.cpp
 /// @brief MultiScaleMap's map file: writing, reading and checking it (docs/pose_graph.md, "Map
 /// file"). The map's contents and their building are in multiscale_map.cpp.
-#include "vims_pose_graph/multiscale_map.h"
-
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -10,6 +8,7 @@
 #include <limits>
 
 #include "vims_common/fnv1a.h"
+#include "vims_pose_graph/multiscale_map.h"
 
 namespace vims {
 
@@ -83,7 +82,8 @@ class ByteReader {
     const uint32_t n = u32();
     if (n > max_length) fail("corrupt: string too long");
     need(n);
-    std::string s(bytes_.begin() + static_cast<std::ptrdiff_t>(pos_), bytes_.begin() + static_cast<std::ptrdiff_t>(pos_ + n));
+    std::string s(bytes_.begin() + static_cast<std::ptrdiff_t>(pos_),
+                  bytes_.begin() + static_cast<std::ptrdiff_t>(pos_ + n));
     pos_ += n;
     return s;
   }
@@ -324,13 +324,16 @@ void MultiScaleMap::load(const std::string& path) {
 void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::string& source) {
   if (!nodes_.empty() || !sessions_.empty())
     throw std::logic_error("MultiScaleMap::deserialize: the map must be empty (load before feeding keyframes)");
-  auto fail = [&](const std::string& what) -> MapFileError { return MapFileError("map file '" + source + "': " + what); };
+  auto fail = [&](const std::string& what) -> MapFileError {
+    return MapFileError("map file '" + source + "': " + what);
+  };
   if (bytes.size() < kHeaderBytes + 8) throw fail("truncated (" + std::to_string(bytes.size()) + " bytes)");
   if (std::memcmp(bytes.data(), kMagic, 8) != 0) throw fail("not a VIMS map (bad magic)");
   uint32_t version = 0;
   for (int i = 0; i < 4; ++i) version |= static_cast<uint32_t>(bytes[8 + static_cast<size_t>(i)]) << (8 * i);
   if (version != kFileVersion)
-    throw fail("unsupported version " + std::to_string(version) + " (this build reads " + std::to_string(kFileVersion) + ")");
+    throw fail("unsupported version " + std::to_string(version) + " (this build reads " + std::to_string(kFileVersion) +
+               ")");
   uint64_t payload = 0;
   for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(bytes[12 + static_cast<size_t>(i)]) << (8 * i);
   const uint64_t expected = kHeaderBytes + payload + 8;
@@ -339,7 +342,8 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   if (expected < bytes.size())
     throw fail("oversized (" + std::to_string(bytes.size()) + " bytes, header says " + std::to_string(expected) + ")");
   uint64_t stored_checksum = 0;
-  for (int i = 0; i < 8; ++i) stored_checksum |= static_cast<uint64_t>(bytes[expected - 8 + static_cast<size_t>(i)]) << (8 * i);
+  for (int i = 0; i < 8; ++i)
+    stored_checksum |= static_cast<uint64_t>(bytes[expected - 8 + static_cast<size_t>(i)]) << (8 * i);
   if (fnv1a64(bytes.data(), expected - 8) != stored_checksum) throw fail("checksum mismatch (file corrupt)");
 
   ByteReader r(bytes, kHeaderBytes, static_cast<size_t>(expected - 8), source);
@@ -352,8 +356,9 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     throw fail("built with '" + descriptor_type + "' descriptors, but this run uses '" + own_type +
                "' (the map's loop closing mode must use the same descriptor)");
   if (vocabulary_checksum != vocabulary_checksum_)
-    throw fail("built with another vocabulary ('" + vocabulary_path + "', checksum " + std::to_string(vocabulary_checksum) +
-               "); this run's vocabulary has checksum " + std::to_string(vocabulary_checksum_));
+    throw fail("built with another vocabulary ('" + vocabulary_path + "', checksum " +
+               std::to_string(vocabulary_checksum) + "); this run's vocabulary has checksum " +
+               std::to_string(vocabulary_checksum_));
   (void)vocabulary_words;
 
   // Parse into a fresh map first: nothing of this map changes unless the whole file is valid.
@@ -412,7 +417,8 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     SequentialEdge e;
     e.from = r.u32();
     e.to = r.u32();
-    if (e.from >= num_nodes || e.to >= num_nodes || e.from == e.to) r.fail("corrupt: sequential edge node out of range");
+    if (e.from >= num_nodes || e.to >= num_nodes || e.from == e.to)
+      r.fail("corrupt: sequential edge node out of range");
     e.measurement.p_li_j = r.vec("sequential edge");
     e.measurement.yaw_i_j = r.finite("sequential edge");
     for (int k = 0; k < 4; ++k) e.sqrt_information[k] = r.finite("sequential edge information");
@@ -425,7 +431,8 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     e.id = r.u32();
     e.match = r.u32();
     e.query = r.u32();
-    if (e.match >= num_nodes || e.query >= num_nodes || e.match == e.query) r.fail("corrupt: loop edge node out of range");
+    if (e.match >= num_nodes || e.query >= num_nodes || e.match == e.query)
+      r.fail("corrupt: loop edge node out of range");
     e.T_match_query = r.pose("loop edge");
     e.measurement.p_li_j = r.vec("loop edge");
     e.measurement.yaw_i_j = r.finite("loop edge");
@@ -477,8 +484,8 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   bow_ = std::move(m.bow_);
   image_to_node_ = std::move(m.image_to_node_);
   logger_->info(kComponent, VIMS_STR("loaded map '" << source << "': " << nodes_.size() << " keyframes, "
-                                     << sessions_.size() << " sessions, " << loop_edges_.size() << " loops, "
-                                     << magnetic_submaps_.size() << " magnetic submaps"));
+                                                    << sessions_.size() << " sessions, " << loop_edges_.size()
+                                                    << " loops, " << magnetic_submaps_.size() << " magnetic submaps"));
 }
 
 }  // namespace vims

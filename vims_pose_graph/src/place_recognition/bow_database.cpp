@@ -11,7 +11,8 @@ BowDatabase::BowDatabase(std::shared_ptr<const BinaryVocabulary> vocabulary, int
     : vocabulary_(std::move(vocabulary)), direct_index_depth_(direct_index_depth) {
   if (!vocabulary_ || vocabulary_->empty()) throw std::invalid_argument("BowDatabase: the vocabulary is empty");
   if (direct_index_depth_ < 1)
-    throw std::invalid_argument("BowDatabase: direct_index_depth must be >= 1, got " + std::to_string(direct_index_depth));
+    throw std::invalid_argument("BowDatabase: direct_index_depth must be >= 1, got " +
+                                std::to_string(direct_index_depth));
   direct_index_depth_ = std::min(direct_index_depth_, vocabulary_->levels());
   inverted_.resize(vocabulary_->numWords());
 }
@@ -61,7 +62,8 @@ std::vector<BowQueryResult> BowDatabase::selectBest(std::vector<BowQueryResult> 
     return a.score > b.score || (a.score == b.score && a.image < b.image);
   };
   if (results.size() > max_results) {
-    std::partial_sort(results.begin(), results.begin() + static_cast<std::ptrdiff_t>(max_results), results.end(), better);
+    std::partial_sort(results.begin(), results.begin() + static_cast<std::ptrdiff_t>(max_results), results.end(),
+                      better);
     results.resize(max_results);
   } else {
     std::sort(results.begin(), results.end(), better);

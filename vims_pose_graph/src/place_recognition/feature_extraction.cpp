@@ -1,9 +1,8 @@
 #include "vims_pose_graph/feature_extraction.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -74,7 +73,8 @@ BriefDescriptor::BriefDescriptor(uint32_t pattern_seed) {
   }
 }
 
-std::vector<BinaryDescriptor> BriefDescriptor::compute(const cv::Mat& image, std::vector<cv::KeyPoint>* keypoints) const {
+std::vector<BinaryDescriptor> BriefDescriptor::compute(const cv::Mat& image,
+                                                       std::vector<cv::KeyPoint>* keypoints) const {
   if (image.type() != CV_8UC1) throw std::invalid_argument("BriefDescriptor::compute: image must be CV_8UC1");
   // Smoothing makes single-pixel comparisons robust to noise (Calonder et al.: 9x9, sigma 2).
   cv::Mat smooth;
@@ -109,8 +109,8 @@ FeatureExtractor::FeatureExtractor(const FeatureExtractionOptions& options) : op
     throw std::invalid_argument("FeatureExtractor: invalid options");
   // ORB as in the paper's visual submaps: conventional per-level corner selection (Harris score),
   // 31x31 oriented patches, the standard 256-bit rBRIEF test set.
-  orb_ = cv::ORB::create(options_.max_features, static_cast<float>(options_.orb_scale_factor), options_.orb_levels,
-                         31, 0, 2, cv::ORB::HARRIS_SCORE, 31, options_.fast_threshold);
+  orb_ = cv::ORB::create(options_.max_features, static_cast<float>(options_.orb_scale_factor), options_.orb_levels, 31,
+                         0, 2, cv::ORB::HARRIS_SCORE, 31, options_.fast_threshold);
   fast_ = cv::FastFeatureDetector::create(options_.fast_threshold, true);
 }
 

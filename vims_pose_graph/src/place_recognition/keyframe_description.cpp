@@ -1,9 +1,6 @@
 #include "vims_pose_graph/keyframe_description.h"
 
 #include <Eigen/LU>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,6 +8,8 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -326,8 +325,8 @@ std::vector<cv::Point2f> KeyframeImage::cornersOnLevel(int level, int max_corner
   if (level < 0 || level >= static_cast<int>(pyramid_.size()) || max_corners <= 0) return corners;
   std::unique_ptr<ShiTomasiCandidates>& candidates = candidates_[static_cast<size_t>(level)];
   if (!candidates)
-    candidates = std::make_unique<ShiTomasiCandidates>(pyramid_[static_cast<size_t>(level)], kShiTomasiQuality,
-                                                       kShiTomasiBlock);
+    candidates =
+        std::make_unique<ShiTomasiCandidates>(pyramid_[static_cast<size_t>(level)], kShiTomasiQuality, kShiTomasiBlock);
   corners = candidates->select(max_corners, min_distance_px);
   // cv::ORB's convention for its own keypoints (level pixel x scale), so both kinds agree.
   const float scale = static_cast<float>(std::pow(scale_factor_, level));
@@ -474,7 +473,7 @@ std::vector<KeyframeLandmark> pseudoLandmarks(const std::vector<cv::Point2f>& co
 }  // namespace
 
 VisualSubmap KeyframeDescriber::describeKeyframe(const cv::Mat& image, const std::vector<KeyframeLandmark>& features,
-                                                const BinaryVocabulary* vocabulary, DescribedPoints* points) {
+                                                 const BinaryVocabulary* vocabulary, DescribedPoints* points) {
   KeyframeImage prepared = prepare(image);
   KeyframeDescription d = describeAll(prepared, features, nullptr, vocabulary);
   if (points != nullptr) *points = std::move(d.points);
@@ -660,7 +659,8 @@ DescribedPoints KeyframeDescriber::usablePoints(const cv::Mat& mono, const std::
 void KeyframeDescriber::replicateOnLevels(const KeyframeImage& image, DescribedPoints* points, int min_level,
                                           int max_level, OrbBatch* batch) const {
   const std::vector<cv::Mat>& pyramid = image.pyramid();
-  const int levels = static_cast<int>(std::min<size_t>(pyramid.size(), static_cast<size_t>(std::max(max_level, 0)) + 1));
+  const int levels =
+      static_cast<int>(std::min<size_t>(pyramid.size(), static_cast<size_t>(std::max(max_level, 0)) + 1));
   for (int level = std::max(min_level, 0); level < levels; ++level) {
     const cv::Mat& level_image = pyramid[static_cast<size_t>(level)];
     const double scale = std::pow(features_.orb_scale_factor, level);

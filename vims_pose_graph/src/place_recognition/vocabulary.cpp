@@ -19,8 +19,8 @@ namespace vims {
 // ---------------------------------------------------------------------------------------------
 
 double BowVector::weight(WordId word) const {
-  auto it = std::lower_bound(entries.begin(), entries.end(), word,
-                             [](const BowEntry& e, WordId w) { return e.word < w; });
+  auto it =
+      std::lower_bound(entries.begin(), entries.end(), word, [](const BowEntry& e, WordId w) { return e.word < w; });
   return (it != entries.end() && it->word == word) ? it->weight : 0.0;
 }
 
@@ -142,8 +142,8 @@ VIMS_POPCOUNT_DISPATCH size_t nearestCenter(const BinaryDescriptor& d, const std
 /// k-medians in Hamming space of the descriptors `members` (indices into `all`): k-means++
 /// seeding with squared Hamming distances, then Lloyd iterations with bitwise-majority medians.
 /// Returns at most k non-empty clusters; fewer when the members hold fewer distinct values.
-std::vector<Cluster> kMedians(const std::vector<BinaryDescriptor>& all, const std::vector<uint32_t>& members,
-                              int k, int max_iterations, DeterministicRng& rng) {
+std::vector<Cluster> kMedians(const std::vector<BinaryDescriptor>& all, const std::vector<uint32_t>& members, int k,
+                              int max_iterations, DeterministicRng& rng) {
   const size_t n = members.size();
   std::vector<BinaryDescriptor> centers;
   // Seeding. Each new center is a member drawn with probability proportional to its squared
@@ -290,10 +290,10 @@ BinaryVocabulary BinaryVocabulary::train(const std::vector<std::vector<BinaryDes
   }
   voc.computeIdf(images);
   if (logger) {
-    logger->info("vocabulary", VIMS_STR("trained k=" << options.branching << " L=" << options.levels << ": "
-                                                      << voc.words_.size() << " words, " << voc.nodes_.size()
-                                                      << " nodes from " << all.size() << " descriptors of "
-                                                      << images.size() << " images"));
+    logger->info("vocabulary",
+                 VIMS_STR("trained k=" << options.branching << " L=" << options.levels << ": " << voc.words_.size()
+                                       << " words, " << voc.nodes_.size() << " nodes from " << all.size()
+                                       << " descriptors of " << images.size() << " images"));
   }
   return voc;
 }
@@ -326,7 +326,8 @@ void BinaryVocabulary::computeIdf(const std::vector<std::vector<BinaryDescriptor
 // Queries
 // ---------------------------------------------------------------------------------------------
 
-VIMS_POPCOUNT_DISPATCH uint32_t BinaryVocabulary::descend(const BinaryDescriptor& descriptor, int record_depth, uint32_t* recorded) const {
+VIMS_POPCOUNT_DISPATCH uint32_t BinaryVocabulary::descend(const BinaryDescriptor& descriptor, int record_depth,
+                                                          uint32_t* recorded) const {
   uint32_t node = 0;
   if (recorded) *recorded = 0;
   while (nodes_[node].num_children > 0) {
@@ -538,7 +539,8 @@ BinaryVocabulary BinaryVocabulary::deserialize(const std::vector<uint8_t>& bytes
                               " vocabulary file: header announces " + std::to_string(expected) + " bytes, file has " +
                               std::to_string(bytes.size()));
   uint64_t stored_checksum = 0;
-  for (int i = 0; i < 8; ++i) stored_checksum |= static_cast<uint64_t>(bytes[expected - 8 + static_cast<size_t>(i)]) << (8 * i);
+  for (int i = 0; i < 8; ++i)
+    stored_checksum |= static_cast<uint64_t>(bytes[expected - 8 + static_cast<size_t>(i)]) << (8 * i);
   if (fnv1a64(bytes.data(), expected - 8) != stored_checksum)
     throw VocabularyFileError(source + ": checksum mismatch, the vocabulary file is corrupt");
 
@@ -574,7 +576,8 @@ void BinaryVocabulary::linkTree(const std::string& source) {
       fail("children of node " + std::to_string(p) + " are not contiguous");
     }
     ++parent.num_children;
-    if (parent.num_children > static_cast<uint32_t>(branching_)) fail("node " + std::to_string(p) + " has too many children");
+    if (parent.num_children > static_cast<uint32_t>(branching_))
+      fail("node " + std::to_string(p) + " has too many children");
     nodes_[i].depth = parent.depth + 1;
     if (nodes_[i].depth > static_cast<uint32_t>(levels_)) fail("node " + std::to_string(i) + " is deeper than L");
   }

@@ -124,28 +124,28 @@ class PoseGraphNode {
     keyframe_sub_ = nh.subscribe("vio/keyframe", 20, &PoseGraphNode::onKeyframe, this);
     signature_sub_ = nh.subscribe("mag/signature", 50, &PoseGraphNode::onSignature, this);
     geomagnetic_sub_ = nh.subscribe("mag/geomagnetic", 200, &PoseGraphNode::onGeomagnetic, this);
-    odometry_sub_ = nh.subscribe("vio/odometry", 200, &PoseGraphNode::onOdometry, this,
-                                 ros::TransportHints().tcpNoDelay());
-    publish_timer_ = nh.createWallTimer(ros::WallDuration(settings_.publish_period_s), &PoseGraphNode::onPublishTimer,
-                                        this);
+    odometry_sub_ =
+        nh.subscribe("vio/odometry", 200, &PoseGraphNode::onOdometry, this, ros::TransportHints().tcpNoDelay());
+    publish_timer_ =
+        nh.createWallTimer(ros::WallDuration(settings_.publish_period_s), &PoseGraphNode::onPublishTimer, this);
     if (!settings_.output_dir.empty()) {
       // loops.csv is streamed (the manager forgets the attempts it hands over): a mission's
       // attempts need not stay in memory until shutdown.
       try {
         std::error_code ec;
         std::filesystem::create_directories(settings_.output_dir, ec);
-        loops_csv_ = std::make_unique<vims::LoopCsvWriter>(
-            (std::filesystem::path(settings_.output_dir) / "loops.csv").string());
+        loops_csv_ =
+            std::make_unique<vims::LoopCsvWriter>((std::filesystem::path(settings_.output_dir) / "loops.csv").string());
       } catch (const std::exception& e) {
         ROS_ERROR_STREAM("cannot write loops.csv to " << settings_.output_dir << ": " << e.what());
       }
     }
-    ROS_INFO_STREAM("pose graph (mode " << vims::toString(manager_->options().mode) << "): "
-                                        << keyframe_sub_.getTopic() << ", " << signature_sub_.getTopic() << ", "
-                                        << geomagnetic_sub_.getTopic() << ", " << odometry_sub_.getTopic() << " -> "
-                                        << path_pub_.getTopic() << ", " << odometry_pub_.getTopic() << ", "
-                                        << loop_edges_pub_.getTopic() << ", " << map_markers_pub_.getTopic()
-                                        << ", tf " << settings_.map_frame_id << " -> " << settings_.odom_frame_id);
+    ROS_INFO_STREAM("pose graph (mode " << vims::toString(manager_->options().mode) << "): " << keyframe_sub_.getTopic()
+                                        << ", " << signature_sub_.getTopic() << ", " << geomagnetic_sub_.getTopic()
+                                        << ", " << odometry_sub_.getTopic() << " -> " << path_pub_.getTopic() << ", "
+                                        << odometry_pub_.getTopic() << ", " << loop_edges_pub_.getTopic() << ", "
+                                        << map_markers_pub_.getTopic() << ", tf " << settings_.map_frame_id << " -> "
+                                        << settings_.odom_frame_id);
   }
 
   /// End of the run (after ros::spin returned): processes what is still queued and saves the
@@ -407,7 +407,7 @@ class PoseGraphNode {
   NodeSettings settings_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::optional<ros::Time> last_tf_stamp_;
-  vims::PeriodicHeapRelease heap_release_;  ///< on the wall clock
+  vims::PeriodicHeapRelease heap_release_;          ///< on the wall clock
   std::unique_ptr<vims::LoopCsvWriter> loops_csv_;  ///< OUT/loops.csv when ~output_dir is set
   ros::Publisher path_pub_;
   ros::Publisher odometry_pub_;
@@ -455,13 +455,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!(settings.signature_arrow_length_m > 0.0) || !std::isfinite(settings.signature_arrow_length_m)) {
-    ROS_FATAL_STREAM("parameter ~signature_arrow_length_m must be > 0 (is " << settings.signature_arrow_length_m << ")");
+    ROS_FATAL_STREAM("parameter ~signature_arrow_length_m must be > 0 (is " << settings.signature_arrow_length_m
+                                                                            << ")");
     return 1;
   }
   const std::string package_root = packageRoot(pnh);
   if (package_root.empty()) {
-    ROS_FATAL("parameter ~package_root (where the relative vocabulary paths start) is required: the vims "
-              "package was not found");
+    ROS_FATAL(
+        "parameter ~package_root (where the relative vocabulary paths start) is required: the vims "
+        "package was not found");
     return 1;
   }
 

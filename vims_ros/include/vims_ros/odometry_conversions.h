@@ -35,8 +35,8 @@ bool toTransformMsg(double t, const Eigen::Isometry3d& T_parent_child, const std
                     const std::string& child_frame, geometry_msgs::TransformStamped* out, std::string* why);
 
 /// A stamped pose (for nav_msgs/Path). False for a non-finite pose or an unusable time.
-bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string& frame, geometry_msgs::PoseStamped* out,
-                      std::string* why);
+bool toPoseStampedMsg(double t, const Eigen::Isometry3d& pose, const std::string& frame,
+                      geometry_msgs::PoseStamped* out, std::string* why);
 
 /// The estimated local seabed under the body for rviz: a thin square plate of side `size_m`
 /// centred below the body at height `seabed_z`, tilted to the plane of gradient `slope`

@@ -19,8 +19,8 @@ namespace vims {
 
 struct TopicStats {
   std::string type;
-  long messages = 0;   ///< messages read from the bag
-  long rejected = 0;   ///< messages the conversion refused (NaN, wrong encoding, ...)
+  long messages = 0;  ///< messages read from the bag
+  long rejected = 0;  ///< messages the conversion refused (NaN, wrong encoding, ...)
 };
 
 class SequenceBagReader {

@@ -48,7 +48,8 @@ class UniformBSpline {
   /// out must hold max_derivative + 1 vectors; max_derivative <= degree.
   void evaluate(double t, int max_derivative, Vector* out) const {
     if (control_.empty()) throw std::logic_error("UniformBSpline: evaluated before it was constructed");
-    if (max_derivative < 0 || max_derivative > degree_) throw std::invalid_argument("UniformBSpline: bad derivative order");
+    if (max_derivative < 0 || max_derivative > degree_)
+      throw std::invalid_argument("UniformBSpline: bad derivative order");
     const int num_segments = static_cast<int>(control_.size()) - degree_;
     double x = (t - t0_) / dt_;
     int segment = static_cast<int>(std::floor(x));

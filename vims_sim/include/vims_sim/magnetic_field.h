@@ -17,10 +17,10 @@ constexpr double kMu0 = 4.0e-7 * M_PI;
 struct CoilDipole {
   Eigen::Vector3d position_w = Eigen::Vector3d::Zero();  ///< coil centre in world ENU [m]
   int turns = 330;
-  double current = 2.9;        ///< peak current [A]
-  double diameter = 0.6;       ///< [m]
-  double frequency = 11.0;     ///< [Hz]
-  double phase = 0.0;          ///< [rad] at t = 0 (the sequence start)
+  double current = 2.9;     ///< peak current [A]
+  double diameter = 0.6;    ///< [m]
+  double frequency = 11.0;  ///< [Hz]
+  double phase = 0.0;       ///< [rad] at t = 0 (the sequence start)
 
   /// Peak magnetic moment vector [A m^2] (vertical axis: only z is non-zero).
   Eigen::Vector3d peakMoment() const;

@@ -35,7 +35,9 @@ inline double hashToUnit(uint64_t h) { return static_cast<double>(h >> 11) * (1.
 
 /// Derives an independent seed for a named sub-stream (e.g. "imu noise") of a master seed, so
 /// that switching one sensor off or changing its spans never changes another sensor's noise.
-inline uint64_t deriveSeed(uint64_t master, uint64_t stream_id) { return hashCoords(master, 0x5EED, static_cast<int64_t>(stream_id)); }
+inline uint64_t deriveSeed(uint64_t master, uint64_t stream_id) {
+  return hashCoords(master, 0x5EED, static_cast<int64_t>(stream_id));
+}
 
 /// xoshiro256++ generator with uniform and Gaussian draws.
 class Rng {

@@ -15,9 +15,8 @@
 
 #include <Eigen/Geometry>
 #include <memory>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "vims_common/sequence_config.h"
 #include "vims_sim/seabed_texture.h"
@@ -95,15 +94,15 @@ class SeabedRenderer {
   std::shared_ptr<const SeabedTexture> texture_;
   UnderwaterOptics optics_;
   std::shared_ptr<const SeabedTerrain> terrain_;  ///< null: the flat seabed z = 0
-  std::vector<Eigen::Vector3f> rays_c_;  ///< per pixel, undistorted, z = 1
-  std::vector<float> ray_norm_;          ///< |ray|
-  std::vector<float> pixel_angle_;       ///< angle subtended by the pixel (larger of its two sides) [rad]
-  std::vector<float> lamp_vignette_;     ///< lamp beam * cos^n vignetting per pixel
+  std::vector<Eigen::Vector3f> rays_c_;           ///< per pixel, undistorted, z = 1
+  std::vector<float> ray_norm_;                   ///< |ray|
+  std::vector<float> pixel_angle_;                ///< angle subtended by the pixel (larger of its two sides) [rad]
+  std::vector<float> lamp_vignette_;              ///< lamp beam * cos^n vignetting per pixel
   /// Over range, kRangeTableStep apart: lamp light reaching the camera from the seabed per unit
   /// albedo and cos(incidence) (1/r^2 spreading, attenuation both ways), and backscatter haze.
   std::vector<float> range_irradiance_;
   std::vector<float> range_haze_;
-  std::vector<uint8_t> response_lut_;    ///< linear signal -> 8-bit (Rec.709 OETF)
+  std::vector<uint8_t> response_lut_;  ///< linear signal -> 8-bit (Rec.709 OETF)
 };
 
 }  // namespace sim

@@ -13,15 +13,14 @@
 /// and contact shadows), shells (small bright ribbed ellipses), pebbles and weed patches. A
 /// low-frequency density field makes sparse sandy stretches with few objects.
 
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <memory>
-#include <condition_variable>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <unordered_map>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 namespace vims {
 namespace sim {

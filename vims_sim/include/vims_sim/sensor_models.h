@@ -24,11 +24,11 @@ namespace sim {
 /// Continuous-time IMU noise (Kalibr/Allan convention) and rate.
 struct ImuNoiseParams {
   double rate_hz = 200.0;
-  double gyro_noise_density = 0.0;   ///< rad/s/sqrt(Hz)
-  double gyro_random_walk = 0.0;     ///< rad/s^2/sqrt(Hz)
-  double accel_noise_density = 0.0;  ///< m/s^2/sqrt(Hz)
-  double accel_random_walk = 0.0;    ///< m/s^3/sqrt(Hz)
-  double gravity = 9.81;             ///< m/s^2
+  double gyro_noise_density = 0.0;      ///< rad/s/sqrt(Hz)
+  double gyro_random_walk = 0.0;        ///< rad/s^2/sqrt(Hz)
+  double accel_noise_density = 0.0;     ///< m/s^2/sqrt(Hz)
+  double accel_random_walk = 0.0;       ///< m/s^3/sqrt(Hz)
+  double gravity = 9.81;                ///< m/s^2
   double gyro_initial_bias_std = 0.0;   ///< rad/s, per axis, of the seeded turn-on bias
   double accel_initial_bias_std = 0.0;  ///< m/s^2, per axis
 
@@ -40,9 +40,9 @@ struct ImuNoiseParams {
 };
 
 struct ImuMeasurement {
-  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();   ///< rad/s, body
-  Eigen::Vector3d accel = Eigen::Vector3d::Zero();  ///< m/s^2 specific force, body
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< the bias included in this sample
+  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();       ///< rad/s, body
+  Eigen::Vector3d accel = Eigen::Vector3d::Zero();      ///< m/s^2 specific force, body
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  ///< the bias included in this sample
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
 };
 
@@ -74,14 +74,14 @@ class ImuSimulator {
 
 struct SonarParams {
   double rate_hz = 10.0;
-  double range_noise_std = 0.02;       ///< [m] white noise of a good echo
-  double outlier_probability = 0.03;   ///< multipath: the range is multiplied by U(outlier_min, outlier_max)
+  double range_noise_std = 0.02;      ///< [m] white noise of a good echo
+  double outlier_probability = 0.03;  ///< multipath: the range is multiplied by U(outlier_min, outlier_max)
   double outlier_min_factor = 1.3;
   double outlier_max_factor = 2.0;
-  double dropout_probability = 0.01;   ///< no echo: range = +inf
-  double min_range = 0.1;              ///< [m]
-  double max_range = 50.0;             ///< [m] beyond: no echo (+inf)
-  double field_of_view = 0.1;          ///< [rad] full beam width (reported in the message)
+  double dropout_probability = 0.01;  ///< no echo: range = +inf
+  double min_range = 0.1;             ///< [m]
+  double max_range = 50.0;            ///< [m] beyond: no echo (+inf)
+  double field_of_view = 0.1;         ///< [rad] full beam width (reported in the message)
 };
 
 struct SonarReading {
@@ -102,8 +102,8 @@ class SonarSimulator {
   static double trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s);
   /// Slant range along the beam to the first crossing with the terrain's surface, rocks
   /// included (+inf when the beam meets nothing within max_range).
-  static double trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s,
-                          const SeabedTerrain& terrain, double max_range);
+  static double trueRange(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_s, const SeabedTerrain& terrain,
+                          double max_range);
 
   SonarReading measure(const Eigen::Isometry3d& T_w_b);
 

@@ -17,9 +17,8 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <functional>
-#include <string>
-
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "vims_sim/sensor_models.h"
 #include "vims_sim/sim_setup.h"
@@ -46,8 +45,8 @@ struct GenerationStats {
   int64_t imu_messages = 0, image_messages = 0, sonar_messages = 0, mag_messages = 0, pose_messages = 0;
   int64_t pressure_messages = 0;
   int64_t blackout_frames = 0;
-  int corner_frames = 0;          ///< frames on which corners were counted (every 5th lit frame)
-  double median_corners = 0.0;    ///< Shi-Tomasi (300, 0.01, 15) per frame, median
+  int corner_frames = 0;        ///< frames on which corners were counted (every 5th lit frame)
+  double median_corners = 0.0;  ///< Shi-Tomasi (300, 0.01, 15) per frame, median
   int min_corners = 0;
   size_t tiles_generated = 0;
 };

@@ -34,7 +34,7 @@ TerrainParams terrainPreset(const std::string& name);
 TerrainParams terrainFromOptions(const TerrainOptions& options);
 
 struct PressureOptions {
-  bool enabled = false;              ///< --pressure: a depth sensor on /pressure
+  bool enabled = false;  ///< --pressure: a depth sensor on /pressure
   double rate_hz = 10.0;
   double atmospheric_error_pa = 0.0;  ///< the YAML's atmospheric_pa is off by this from the truth
   double spike_fraction = 0.0;        ///< fraction of samples with a large spike
@@ -42,20 +42,20 @@ struct PressureOptions {
 
 struct SimOptions {
   Scenario scenario = Scenario::kTank;
-  double duration = 0.0;                ///< [s]
-  uint64_t seed = 0;                    ///< trajectory seed: path, rig calibration, all noise
-  std::optional<uint64_t> world_seed;   ///< seabed, coil position, site field; default = seed
+  double duration = 0.0;               ///< [s]
+  uint64_t seed = 0;                   ///< trajectory seed: path, rig calibration, all noise
+  std::optional<uint64_t> world_seed;  ///< seabed, coil position, site field; default = seed
   std::string out_dir;
-  std::string name;                     ///< default: basename of out_dir
-  double static_start = 3.0;            ///< [s]
-  double camera_delay = 0.0;            ///< [s] image stamp = exposure time + delay
+  std::string name;           ///< default: basename of out_dir
+  double static_start = 3.0;  ///< [s]
+  double camera_delay = 0.0;  ///< [s] image stamp = exposure time + delay
   DropoutSpans spans;
-  double start_time = 1700000000.0;     ///< bag-clock time of the sequence start [s]
-  bool lz4 = false;                     ///< lz4-compressed bag chunks
-  int render_threads = 0;               ///< 0: one per hardware thread
-  TerrainOptions terrain;               ///< default: the flat seabed z = 0
-  std::optional<double> depth_hold_z;   ///< [m] constant body z; unset: altitude hold
-  bool hold_plane_only = false;         ///< --hold-plane-only: altitude hold ignores the rolling relief
+  double start_time = 1700000000.0;    ///< bag-clock time of the sequence start [s]
+  bool lz4 = false;                    ///< lz4-compressed bag chunks
+  int render_threads = 0;              ///< 0: one per hardware thread
+  TerrainOptions terrain;              ///< default: the flat seabed z = 0
+  std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold
+  bool hold_plane_only = false;        ///< --hold-plane-only: altitude hold ignores the rolling relief
   PressureOptions pressure;
   /// [m] the sonar's range limit (the YAML's max_range); a seabed beyond it gives no echo (+inf),
   /// as over a drop-off or when the vehicle climbs off the bottom. Unset: the default sonar's.

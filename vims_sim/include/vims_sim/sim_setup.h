@@ -4,6 +4,8 @@
 /// the rig (camera intrinsics, extrinsics, noise figures) from the trajectory seed, the site
 /// (seabed texture and shape, coil position, geomagnetic field, water depth) from the world seed.
 
+#include <memory>
+
 #include "vims_common/sequence_config.h"
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/seabed_renderer.h"
@@ -13,8 +15,6 @@
 #include "vims_sim/sim_truth.h"
 #include "vims_sim/terrain.h"
 #include "vims_sim/trajectory.h"
-
-#include <memory>
 
 namespace vims {
 namespace sim {
@@ -32,8 +32,8 @@ SiteModel makeSite(Scenario scenario, uint64_t world_seed);
 
 struct SimSetup {
   SimOptions options;
-  SequenceConfig config;        ///< -> <seq>.yaml (the estimator's calibration)
-  SimTruth truth;               ///< -> <seq>_truth.yaml
+  SequenceConfig config;  ///< -> <seq>.yaml (the estimator's calibration)
+  SimTruth truth;         ///< -> <seq>_truth.yaml
   Trajectory trajectory;
   ImuNoiseParams imu;
   SonarParams sonar;

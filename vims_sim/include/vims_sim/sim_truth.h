@@ -13,10 +13,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
-
-#include <optional>
 
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/sensor_models.h"
@@ -76,10 +75,10 @@ struct SimTruth {
 
   DropoutSpans dropouts;
 
-  TerrainParams terrain;                ///< the seabed (flat unless the sequence had terrain)
+  TerrainParams terrain;                  ///< the seabed (flat unless the sequence had terrain)
   std::optional<PressureTruth> pressure;  ///< set when the sequence has a pressure sensor
-  std::optional<double> depth_hold_z;   ///< [m] set when the vehicle held a constant z instead of its altitude
-  bool hold_plane_only = false;         ///< the altitude hold followed the seabed's plane, not its relief
+  std::optional<double> depth_hold_z;     ///< [m] set when the vehicle held a constant z instead of its altitude
+  bool hold_plane_only = false;           ///< the altitude hold followed the seabed's plane, not its relief
 
   /// YAML text (numbers with round-trip precision).
   std::string toYaml() const;

@@ -65,10 +65,10 @@ struct TerrainRock {
 
 /// The first crossing of a ray with the seabed.
 struct TerrainHit {
-  double t = 0.0;                                     ///< ray parameter: point = origin + t * direction
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();    ///< world ENU
-  Eigen::Vector2d gradient = Eigen::Vector2d::Zero(); ///< (dh/dx, dh/dy) at the point
-  int evaluations = 0;                                ///< height evaluations spent (for profiling)
+  double t = 0.0;                                      ///< ray parameter: point = origin + t * direction
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();     ///< world ENU
+  Eigen::Vector2d gradient = Eigen::Vector2d::Zero();  ///< (dh/dx, dh/dy) at the point
+  int evaluations = 0;                                 ///< height evaluations spent (for profiling)
 };
 
 /// The rocks of recently visited grid cells, for runs of nearby rays (an image's pixels): saves

@@ -45,20 +45,20 @@ std::vector<Eigen::Vector2d> scenarioLapWaypoints(Scenario scenario);
 
 /// One instant of the trajectory. All quantities are of the body (IMU) frame.
 struct TrajectoryState {
-  double t = 0.0;                                       ///< seconds from the sequence start
-  Eigen::Vector3d p_w_b = Eigen::Vector3d::Zero();      ///< position in world ENU [m]
-  Eigen::Vector3d v_w_b = Eigen::Vector3d::Zero();      ///< velocity in world [m/s]
-  Eigen::Vector3d a_w_b = Eigen::Vector3d::Zero();      ///< acceleration in world [m/s^2]
+  double t = 0.0;                                             ///< seconds from the sequence start
+  Eigen::Vector3d p_w_b = Eigen::Vector3d::Zero();            ///< position in world ENU [m]
+  Eigen::Vector3d v_w_b = Eigen::Vector3d::Zero();            ///< velocity in world [m/s]
+  Eigen::Vector3d a_w_b = Eigen::Vector3d::Zero();            ///< acceleration in world [m/s^2]
   Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();  ///< orientation (body FLU in world)
-  Eigen::Vector3d omega_b = Eigen::Vector3d::Zero();    ///< angular rate in body [rad/s]
+  Eigen::Vector3d omega_b = Eigen::Vector3d::Zero();          ///< angular rate in body [rad/s]
 };
 
 struct TrajectoryParams {
   Scenario scenario = Scenario::kTank;
-  double duration = 750.0;      ///< [s] sequence length; sample() is exact on [-margin, duration + margin]
-  uint64_t seed = 1;            ///< trajectory seed: fixes the per-lap variation, speeds, attitude motion
-  double static_start = 3.0;    ///< [s] the vehicle is exactly at rest on [-margin, static_start]
-  double margin = 5.0;          ///< [s] extra time the model covers on both sides
+  double duration = 750.0;    ///< [s] sequence length; sample() is exact on [-margin, duration + margin]
+  uint64_t seed = 1;          ///< trajectory seed: fixes the per-lap variation, speeds, attitude motion
+  double static_start = 3.0;  ///< [s] the vehicle is exactly at rest on [-margin, static_start]
+  double margin = 5.0;        ///< [s] extra time the model covers on both sides
   /// The seabed. Altitude hold (the default) flies the altitude profile above its large-scale
   /// shape (plane + rolling relief, not the roughness or the rocks); flat: above z = 0.
   TerrainParams terrain;

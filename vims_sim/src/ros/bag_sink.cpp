@@ -76,7 +76,8 @@ void BagSink::image(int64_t stamp_ns, const cv::Mat& mono8) {
   msg.is_bigendian = 0;
   msg.step = static_cast<uint32_t>(mono8.cols);
   msg.data.resize(static_cast<size_t>(mono8.rows) * mono8.cols);
-  for (int r = 0; r < mono8.rows; ++r) std::memcpy(&msg.data[static_cast<size_t>(r) * mono8.cols], mono8.ptr(r), mono8.cols);
+  for (int r = 0; r < mono8.rows; ++r)
+    std::memcpy(&msg.data[static_cast<size_t>(r) * mono8.cols], mono8.ptr(r), mono8.cols);
   bag_.write(config_.topics.image, msg.header.stamp, msg);
 }
 

@@ -4,8 +4,8 @@
 
 #include <ros/time.h>
 
-#include <cstdio>
 #include <algorithm>
+#include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <iostream>
@@ -37,15 +37,17 @@ int main(int argc, char** argv) {
     const SimSetup setup = buildSimSetup(*options);
     const auto paths = vims::SequencePaths::forWriting(options->out_dir, options->sequenceName());
     std::filesystem::create_directories(options->out_dir);
-    std::printf("vims_sim: scenario %s, %.1f s, seed %llu, world seed %llu -> %s\n", scenarioName(options->scenario).c_str(),
-                options->duration, static_cast<unsigned long long>(options->seed),
-                static_cast<unsigned long long>(options->worldSeed()), paths.bag.c_str());
+    std::printf("vims_sim: scenario %s, %.1f s, seed %llu, world seed %llu -> %s\n",
+                scenarioName(options->scenario).c_str(), options->duration,
+                static_cast<unsigned long long>(options->seed), static_cast<unsigned long long>(options->worldSeed()),
+                paths.bag.c_str());
     if (!setup.terrain->isFlat()) {
       const vims::sim::TerrainParams& t = setup.terrain->params();
-      std::printf("vims_sim: seabed %s: slope %.1f deg downhill towards %.0f deg, relief %.2f m over %.0f m, roughness "
-                  "%.3f m rms, rocks up to %.2f m at %.3f per m^2\n",
-                  options->terrain.preset.c_str(), t.slope_deg, t.slope_azimuth_deg, t.relief_m, t.relief_wavelength_m,
-                  t.roughness_m, t.rock_height_m, t.rock_density);
+      std::printf(
+          "vims_sim: seabed %s: slope %.1f deg downhill towards %.0f deg, relief %.2f m over %.0f m, roughness "
+          "%.3f m rms, rocks up to %.2f m at %.3f per m^2\n",
+          options->terrain.preset.c_str(), t.slope_deg, t.slope_azimuth_deg, t.relief_m, t.relief_wavelength_m,
+          t.roughness_m, t.rock_height_m, t.rock_density);
     }
     if (options->depth_hold_z) std::printf("vims_sim: depth hold at z = %.2f m\n", *options->depth_hold_z);
     if (setup.config.pressure) {
@@ -60,8 +62,8 @@ int main(int argc, char** argv) {
       const int percent = static_cast<int>(100.0 * sim_time / duration + 0.5);
       if (percent / 10 == last_percent / 10) return;  // print every 10 %
       last_percent = percent;
-      std::printf("vims_sim: %5.1f / %.1f s (%3d %%), %.1f s wall, real-time factor %.1f\n", sim_time, duration, percent,
-                  wall, sim_time / std::max(wall, 1e-9));
+      std::printf("vims_sim: %5.1f / %.1f s (%3d %%), %.1f s wall, real-time factor %.1f\n", sim_time, duration,
+                  percent, wall, sim_time / std::max(wall, 1e-9));
       std::fflush(stdout);
     });
     sink.close();
@@ -72,10 +74,11 @@ int main(int argc, char** argv) {
                 static_cast<long long>(stats.mag_messages), static_cast<long long>(stats.pose_messages));
     if (setup.config.pressure) std::printf(", %lld pressure", static_cast<long long>(stats.pressure_messages));
     std::printf("; %zu seabed tiles generated\n", stats.tiles_generated);
-    std::printf("vims_sim: done: %.1f s of data in %.1f s wall (real-time factor %.1f), typical Shi-Tomasi corners per "
-                "frame %.0f (median of %d frames, min %d)\n",
-                options->duration, stats.wall_seconds, stats.realtime_factor, stats.median_corners, stats.corner_frames,
-                stats.min_corners);
+    std::printf(
+        "vims_sim: done: %.1f s of data in %.1f s wall (real-time factor %.1f), typical Shi-Tomasi corners per "
+        "frame %.0f (median of %d frames, min %d)\n",
+        options->duration, stats.wall_seconds, stats.realtime_factor, stats.median_corners, stats.corner_frames,
+        stats.min_corners);
   } catch (const std::exception& e) {
     std::cerr << "vims_sim: error: " << e.what() << "\n";
     return 1;

@@ -119,9 +119,9 @@ class SonarAltitudeFilter {
   bool locked_ = false;
   bool have_last_t_ = false;
   double last_t_ = 0.0;
-  bool next_is_reset_ = false;     ///< the next held sample is a reset trigger
-  std::vector<Sample> window_;     ///< accepted samples, oldest first (locked mode)
-  std::deque<Pending> pending_;    ///< held samples (acquisition mode), in input order
+  bool next_is_reset_ = false;   ///< the next held sample is a reset trigger
+  std::vector<Sample> window_;   ///< accepted samples, oldest first (locked mode)
+  std::deque<Pending> pending_;  ///< held samples (acquisition mode), in input order
   SonarFilterStats stats_;
 };
 

@@ -26,9 +26,8 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 /// Unwhitened prior residual [p - p0; Log(q q0^{-1})] and its 6x6 tangent Jacobian (if non-null).
-Vector6d posePriorResidual(const Eigen::Vector3d& p_l_b, const Eigen::Quaterniond& q_l_b,
-                           const Eigen::Vector3d& p0_l_b, const Eigen::Quaterniond& q0_l_b,
-                           Matrix6d* d_pose = nullptr);
+Vector6d posePriorResidual(const Eigen::Vector3d& p_l_b, const Eigen::Quaterniond& q_l_b, const Eigen::Vector3d& p0_l_b,
+                           const Eigen::Quaterniond& q0_l_b, Matrix6d* d_pose = nullptr);
 
 /// Ceres wrapper: one parameter block [pose (7)], 6 residuals.
 class PosePriorFactor : public ceres::SizedCostFunction<6, 7> {

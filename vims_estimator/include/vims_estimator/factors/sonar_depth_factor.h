@@ -226,8 +226,7 @@ class SonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1> {
 /// returns r / sigma with r = n^T (s_l - f_l). Same argument checks as SonarDepthFactor.
 class SlopedSonarDepthFactor : public ceres::SizedCostFunction<1, 7, 7, 1, 1, 2> {
  public:
-  SlopedSonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
-                         double sigma);
+  SlopedSonarDepthFactor(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s, double sigma);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 

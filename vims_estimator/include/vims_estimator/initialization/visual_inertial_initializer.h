@@ -88,8 +88,8 @@ struct InitFrame {
 struct VisualSfmResult {
   bool ok = false;
   std::string message;
-  int reference_frame = -1;                       ///< the frame whose camera frame is c0
-  std::vector<Eigen::Isometry3d> T_c0_c;          ///< camera poses (unit-ish translation scale)
+  int reference_frame = -1;               ///< the frame whose camera frame is c0
+  std::vector<Eigen::Isometry3d> T_c0_c;  ///< camera poses (unit-ish translation scale)
   std::map<std::uint64_t, Eigen::Vector3d> points_c0;
   double rms_px = 0.0;
 };
@@ -102,8 +102,8 @@ VisualSfmResult solveVisualSfm(const std::vector<InitFrame>& frames, double foca
 struct VisualInertialInitResult {
   VisualInertialInitStatus status = VisualInertialInitStatus::kTooFewFrames;
   std::string message;
-  double scale = 0.0;                ///< metres per SfM unit
-  double scale_relative_std = 0.0;   ///< 1-sigma, from the weighted alignment
+  double scale = 0.0;               ///< metres per SfM unit
+  double scale_relative_std = 0.0;  ///< 1-sigma, from the weighted alignment
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
   /// Accelerometer bias estimated with the alignment (prior N(0, accel_bias_sigma^2)).
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();

@@ -31,15 +31,15 @@ namespace vims {
 
 /// What the tracker did with a frame.
 enum class FrameStatus {
-  kTracked,         ///< features of the previous frame were tracked (some may be new)
-  kStarted,         ///< no previous frame to track from (first frame, after reset() or a blank frame): all features new
-  kResetOnStamp,    ///< stamp not after the previous frame's: warning, all tracks ended, all features new
-  kResetOnGap,      ///< more than max_frame_gap_s since the previous frame: warning, all tracks ended, all features new
-  kBlank,           ///< camera blackout (no contrast): all tracks ended, no features
-  kRejectedEmpty,   ///< empty image: frame ignored, tracks kept for the next frame
-  kRejectedType,    ///< not CV_8UC1: frame ignored, tracks kept
-  kRejectedSize,    ///< size differs from the calibration: frame ignored, tracks kept
-  kRejectedStamp,   ///< non-finite stamp: frame ignored, tracks kept
+  kTracked,        ///< features of the previous frame were tracked (some may be new)
+  kStarted,        ///< no previous frame to track from (first frame, after reset() or a blank frame): all features new
+  kResetOnStamp,   ///< stamp not after the previous frame's: warning, all tracks ended, all features new
+  kResetOnGap,     ///< more than max_frame_gap_s since the previous frame: warning, all tracks ended, all features new
+  kBlank,          ///< camera blackout (no contrast): all tracks ended, no features
+  kRejectedEmpty,  ///< empty image: frame ignored, tracks kept for the next frame
+  kRejectedType,   ///< not CV_8UC1: frame ignored, tracks kept
+  kRejectedSize,   ///< size differs from the calibration: frame ignored, tracks kept
+  kRejectedStamp,  ///< non-finite stamp: frame ignored, tracks kept
 };
 
 const char* frameStatusName(FrameStatus status);
@@ -135,9 +135,9 @@ class FeatureTracker {
   // Per-frame images kept between frames only so that their memory is reused (see
   // CornerResponseBuffers); their content never carries over.
   std::vector<cv::Mat> current_pyramid_;
-  cv::Mat detection_image_;  ///< CLAHE (or the raw image): corners are detected here
+  cv::Mat detection_image_;             ///< CLAHE (or the raw image): corners are detected here
   bool detection_image_ready_ = false;  ///< detection_image_ is the current frame's
-  cv::Mat flattened_;        ///< flattenIllumination: KLT tracks here
+  cv::Mat flattened_;                   ///< flattenIllumination: KLT tracks here
   IlluminationBuffers illumination_buffers_;
   cv::Mat occupancy_;
   CornerResponseBuffers corner_buffers_;
