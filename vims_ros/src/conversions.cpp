@@ -1,6 +1,9 @@
 #include "vims_ros/conversions.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace vims {
@@ -9,6 +12,22 @@ bool finite3(double x, double y, double z) { return std::isfinite(x) && std::isf
 bool fail(std::string* why, const std::string& reason) {
   if (why) *why = reason;
   return false;
+}
+
+bool checkSize(int width, int height, int expected_width, int expected_height, std::string* why) {
+  if (expected_width > 0 && expected_height > 0 && (width != expected_width || height != expected_height)) {
+    return fail(why, "image is " + std::to_string(width) + "x" + std::to_string(height) + ", calibration says " +
+                         std::to_string(expected_width) + "x" + std::to_string(expected_height));
+  }
+  return true;
+}
+
+/// "jpeg", "png" or "" (unsupported), from a CompressedImage format string.
+std::string compressionOf(std::string format) {
+  std::transform(format.begin(), format.end(), format.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (format.find("jpeg") != std::string::npos || format.find("jpg") != std::string::npos) return "jpeg";
+  if (format.find("png") != std::string::npos) return "png";
+  return "";
 }
 }  // namespace
 
@@ -49,11 +68,8 @@ bool toMagSample(const sensor_msgs::MagneticField& msg, MagSample* out, std::str
 bool toCameraFrame(const sensor_msgs::Image& msg, int expected_width, int expected_height, CameraFrame* out,
                    std::string* why) {
   if (msg.width == 0 || msg.height == 0) return fail(why, "empty image");
-  if (expected_width > 0 && expected_height > 0 &&
-      (static_cast<int>(msg.width) != expected_width || static_cast<int>(msg.height) != expected_height)) {
-    return fail(why, "image is " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
-                         ", calibration says " + std::to_string(expected_width) + "x" +
-                         std::to_string(expected_height));
+  if (!checkSize(static_cast<int>(msg.width), static_cast<int>(msg.height), expected_width, expected_height, why)) {
+    return false;
   }
   int cv_type = -1;
   int channels = 0;
@@ -93,6 +109,42 @@ bool toCameraFrame(const sensor_msgs::Image& msg, int expected_width, int expect
     cv::cvtColor(view, mono, cv::COLOR_BGRA2GRAY);
   } else {
     cv::cvtColor(view, mono, cv::COLOR_RGBA2GRAY);
+  }
+  out->t = toSec(msg.header.stamp);
+  out->image = mono;
+  return true;
+}
+
+bool toCameraFrame(const sensor_msgs::CompressedImage& msg, int expected_width, int expected_height, CameraFrame* out,
+                   std::string* why) {
+  if (compressionOf(msg.format).empty()) {
+    return fail(why, "unsupported compressed image format '" + msg.format + "' (expected jpeg or png)");
+  }
+  if (msg.data.empty()) return fail(why, "empty compressed image");
+  const cv::Mat encoded(1, static_cast<int>(msg.data.size()), CV_8UC1, const_cast<uint8_t*>(msg.data.data()));
+  cv::Mat decoded;
+  try {
+    decoded = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return fail(why, std::string("compressed image does not decode: ") + e.what());
+  }
+  if (decoded.empty()) return fail(why, "compressed image (" + msg.format + ") does not decode");
+  if (!checkSize(decoded.cols, decoded.rows, expected_width, expected_height, why)) return false;
+  cv::Mat mono;
+  if (decoded.depth() == CV_16U) decoded.convertTo(decoded, CV_8U, 1.0 / 256.0);
+  if (decoded.depth() != CV_8U) return fail(why, "compressed image has an unsupported pixel depth");
+  switch (decoded.channels()) {
+    case 1:
+      mono = decoded;
+      break;  // imdecode's buffer is owned
+    case 3:
+      cv::cvtColor(decoded, mono, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(decoded, mono, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      return fail(why, "compressed image has " + std::to_string(decoded.channels()) + " channels");
   }
   out->t = toSec(msg.header.stamp);
   out->image = mono;

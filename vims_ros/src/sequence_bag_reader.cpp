@@ -17,7 +17,7 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
     throw std::runtime_error("cannot open bag '" + bag_path + "': " + e.what());
   }
   std::map<std::string, std::string> expected = {
-      {config_.topics.image, "sensor_msgs/Image"},
+      {config_.topics.image, kRawImageType},
       {config_.topics.imu, "sensor_msgs/Imu"},
       {config_.topics.sonar, "sensor_msgs/Range"},
       {config_.topics.mag, "sensor_msgs/MagneticField"},
@@ -30,6 +30,10 @@ SequenceBagReader::SequenceBagReader(const std::string& bag_path, const Sequence
     const auto it = present.find(topic);
     if (it == present.end()) {
       missing_topics_.push_back(topic);
+      continue;
+    }
+    if (topic == config_.topics.image && it->second == kCompressedImageType) {
+      compressed_images_ = true;  // contract version 2: jpeg or png
       continue;
     }
     if (it->second != type) {
@@ -109,8 +113,15 @@ std::map<std::string, TopicStats> SequenceBagReader::run(const Handlers& handler
       // Images are only decoded when someone consumes them: counting runs stay fast.
       if (!handlers.image) continue;
       CameraFrame frame;
-      const auto msg = m.instantiate<sensor_msgs::Image>();
-      if (msg && toCameraFrame(*msg, config_.camera.width, config_.camera.height, &frame, &why)) {
+      bool ok = false;
+      if (compressed_images_) {
+        const auto msg = m.instantiate<sensor_msgs::CompressedImage>();
+        ok = msg && toCameraFrame(*msg, config_.camera.width, config_.camera.height, &frame, &why);
+      } else {
+        const auto msg = m.instantiate<sensor_msgs::Image>();
+        ok = msg && toCameraFrame(*msg, config_.camera.width, config_.camera.height, &frame, &why);
+      }
+      if (ok) {
         handlers.image(frame);
       } else {
         reject(topic, t);

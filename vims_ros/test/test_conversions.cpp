@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "vims_ros/conversions.h"
 
@@ -78,4 +80,63 @@ TEST(Conversions, ImageEncodingsSizeAndCorruptBuffers) {
   truncated.data.resize(5);
   EXPECT_FALSE(vims::toCameraFrame(truncated, 4, 3, &f, &why));
   EXPECT_NE(why.find("bytes"), std::string::npos);
+}
+
+namespace {
+
+/// A 40x30 test pattern; colour images get the same pattern in three channels with offsets.
+cv::Mat pattern(int type) {
+  cv::Mat image(30, 40, type);
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      const int v = (7 * r + 13 * c) % 256;
+      if (type == CV_8UC1) image.at<uint8_t>(r, c) = static_cast<uint8_t>(v);
+      if (type == CV_8UC3) image.at<cv::Vec3b>(r, c) = cv::Vec3b(v, (v + 80) % 256, (v + 160) % 256);
+    }
+  }
+  return image;
+}
+
+sensor_msgs::CompressedImage compressed(const cv::Mat& image, const std::string& ext, const std::string& format) {
+  sensor_msgs::CompressedImage msg;
+  msg.header.stamp = ros::Time(12.5);
+  msg.format = format;
+  EXPECT_TRUE(cv::imencode(ext, image, msg.data));
+  return msg;
+}
+
+}  // namespace
+
+TEST(Conversions, CompressedImagesDecodeAsTheirRawTwins) {
+  vims::CameraFrame frame;
+  std::string why;
+  // png is lossless: mono comes back to the bit, colour as the raw bgr8 path makes it grey.
+  const cv::Mat mono = pattern(CV_8UC1);
+  ASSERT_TRUE(vims::toCameraFrame(compressed(mono, ".png", "png"), 40, 30, &frame, &why)) << why;
+  EXPECT_EQ(cv::norm(frame.image, mono, cv::NORM_INF), 0.0);
+  EXPECT_DOUBLE_EQ(frame.t, 12.5);
+  const cv::Mat bgr = pattern(CV_8UC3);
+  cv::Mat grey;
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  ASSERT_TRUE(vims::toCameraFrame(compressed(bgr, ".png", "bgr8; png compressed bgr8"), 40, 30, &frame, &why)) << why;
+  EXPECT_EQ(cv::norm(frame.image, grey, cv::NORM_INF), 0.0);
+  // jpeg (OpenCV's default quality 95) loses a little: 0.70 grey levels mean error measured.
+  ASSERT_TRUE(vims::toCameraFrame(compressed(mono, ".jpg", "jpeg"), 40, 30, &frame, &why)) << why;
+  EXPECT_EQ(frame.image.type(), CV_8UC1);
+  EXPECT_LT(cv::norm(frame.image, mono, cv::NORM_L1) / mono.total(), 1.4);
+}
+
+TEST(Conversions, BadCompressedImagesAreRejectedWithAReason) {
+  vims::CameraFrame frame;
+  std::string why;
+  const cv::Mat mono = pattern(CV_8UC1);
+  EXPECT_FALSE(vims::toCameraFrame(compressed(mono, ".bmp", "bmp"), 40, 30, &frame, &why));
+  EXPECT_NE(why.find("unsupported compressed image format 'bmp'"), std::string::npos) << why;
+  EXPECT_FALSE(vims::toCameraFrame(compressed(mono, ".png", "png"), 640, 480, &frame, &why));
+  EXPECT_NE(why.find("calibration says 640x480"), std::string::npos) << why;
+  sensor_msgs::CompressedImage corrupt = compressed(mono, ".png", "png");
+  corrupt.data.resize(20);
+  EXPECT_FALSE(vims::toCameraFrame(corrupt, 40, 30, &frame, &why));
+  corrupt.data.clear();
+  EXPECT_FALSE(vims::toCameraFrame(corrupt, 40, 30, &frame, &why));
 }

@@ -164,6 +164,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
   cfg.camera.distortion = {rig.uniform(-0.08, -0.04), rig.uniform(0.0, 0.015), rig.uniform(-5e-4, 5e-4),
                            rig.uniform(-5e-4, 5e-4)};
   cfg.camera.rate_hz = 10.0;
+  if (options.image_format != "raw") cfg.topics.image += "/compressed";  // image_transport's name
   // Camera looking down, image "up" towards the bow: x_c = -y_b (starboard), y_c = -x_b, z_c = -z_b.
   Eigen::Matrix3d R_b_c_nominal;
   R_b_c_nominal << 0, -1, 0, -1, 0, 0, 0, 0, -1;

@@ -129,6 +129,8 @@ TEST(SimCommandLine, ParsesEveryOption) {
                                             "--start-time",
                                             "1600000000.5",
                                             "--lz4",
+                                            "--image-format",
+                                            "jpeg",
                                             "--threads",
                                             "1"});
   ASSERT_TRUE(options.has_value());
@@ -144,6 +146,7 @@ TEST(SimCommandLine, ParsesEveryOption) {
   EXPECT_EQ(options->spans.imu_gap[0].begin, 9.0);
   EXPECT_EQ(options->start_time, 1600000000.5);
   EXPECT_TRUE(options->lz4);
+  EXPECT_EQ(options->image_format, "jpeg");
   EXPECT_EQ(options->render_threads, 1);
 
   const auto defaults =
@@ -154,6 +157,7 @@ TEST(SimCommandLine, ParsesEveryOption) {
   EXPECT_EQ(defaults->static_start, 3.0);
   EXPECT_EQ(defaults->start_time, 1700000000.0);
   EXPECT_FALSE(defaults->lz4);
+  EXPECT_EQ(defaults->image_format, "raw");
   EXPECT_FALSE(parseSimCommandLine({"--help"}).has_value());
 }
 
@@ -165,6 +169,9 @@ TEST(SimCommandLine, ErrorsNameTheArgument) {
     return args;
   };
   EXPECT_NE(errorOf({"--duration", "20", "--seed", "1", "--out", "d"}).find("--scenario"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--image-format", "bmp"})).find("--image-format: expected raw, png or jpeg"),
+            std::string::npos)
+      << errorOf(with({"--image-format", "bmp"}));
   EXPECT_NE(errorOf({"--scenario", "tank", "--seed", "1", "--out", "d"}).find("--duration"), std::string::npos);
   EXPECT_NE(errorOf({"--scenario", "tank", "--duration", "5", "--out", "d"}).find("--seed"), std::string::npos);
   EXPECT_NE(errorOf({"--scenario", "tank", "--duration", "5", "--seed", "1"}).find("--out"), std::string::npos);

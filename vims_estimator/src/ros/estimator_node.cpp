@@ -4,7 +4,8 @@
 // Callbacks only convert and enqueue; one processing thread makes these calls in arrival order,
 // so a slow optimisation never blocks a callback.
 //
-// Subscribes  <topics.image of the sequence YAML> (sensor_msgs/Image, mono8/bgr8/...; others rejected)
+// Subscribes  <topics.image of the sequence YAML> (sensor_msgs/Image, mono8/bgr8/...; or, for a topic
+//                              ending in /compressed, sensor_msgs/CompressedImage, jpeg/png; others rejected)
 //             <topics.imu of the sequence YAML>   (sensor_msgs/Imu)
 //             sonar/filtered (vims/FilteredSonarRange): the verdicts of vims_sonar_filter_node
 //             <topics.pressure of the sequence YAML> (sensor_msgs/FluidPressure), only when the
@@ -96,6 +97,12 @@ struct NodeSettings {
   std::string output_dir;
 };
 
+/// sensor_msgs/CompressedImage is expected on a topic named <base>/compressed (image_transport).
+bool isCompressedImageTopic(const std::string& topic) {
+  const std::string suffix = "/compressed";
+  return topic.size() > suffix.size() && topic.compare(topic.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
 /// One input for the processing thread, in arrival order.
 using InputEvent = std::variant<vims::ImuSample, vims::CameraFrame, vims::SonarFilterResult, vims::PressureSample>;
 
@@ -123,7 +130,13 @@ class EstimatorNode {
     // Queues of the subscriptions: ~2 s of each sensor; the processing thread's own queue absorbs
     // the optimiser's latency.
     imu_sub_ = nh.subscribe(settings_.imu_topic, 400, &EstimatorNode::onImu, this, ros::TransportHints().tcpNoDelay());
-    image_sub_ = nh.subscribe(settings_.image_topic, 20, &EstimatorNode::onImage, this);
+    // The contract's camera topic carries raw or compressed images; image_transport names the
+    // compressed one <base>/compressed.
+    if (isCompressedImageTopic(settings_.image_topic)) {
+      image_sub_ = nh.subscribe(settings_.image_topic, 20, &EstimatorNode::onImage<sensor_msgs::CompressedImage>, this);
+    } else {
+      image_sub_ = nh.subscribe(settings_.image_topic, 20, &EstimatorNode::onImage<sensor_msgs::Image>, this);
+    }
     sonar_sub_ = nh.subscribe("sonar/filtered", 50, &EstimatorNode::onSonar, this);
     if (sequence_.pressure) {
       pressure_sub_ = nh.subscribe(settings_.pressure_topic, 100, &EstimatorNode::onPressure, this);
@@ -174,11 +187,12 @@ class EstimatorNode {
     enqueue(sample, "IMU sample");
   }
 
-  void onImage(const sensor_msgs::Image::ConstPtr& msg) {
+  template <typename ImageMsg>
+  void onImage(const boost::shared_ptr<const ImageMsg>& msg) {
     vims::CameraFrame frame;
     std::string why;
     if (!vims::toCameraFrame(*msg, sequence_.camera.width, sequence_.camera.height, &frame, &why)) {
-      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "image dropped: " << why);
+      ROS_WARN_STREAM_THROTTLE(kWarnThrottlePeriodS, "image on " << image_sub_.getTopic() << " dropped: " << why);
       return;
     }
     checkClock(&last_image_stamp_, frame.t, "image");

@@ -4,6 +4,7 @@
 /// offline runner so both see exactly the same data. Each conversion validates its input and
 /// returns false with a reason for anything a core must not see (NaN, wrong encoding, ...).
 
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
@@ -36,5 +37,16 @@ bool toMagSample(const sensor_msgs::MagneticField& msg, MagSample* out, std::str
 /// and a size other than expected_width x expected_height (when those are > 0).
 bool toCameraFrame(const sensor_msgs::Image& msg, int expected_width, int expected_height, CameraFrame* out,
                    std::string* why);
+
+/// A compressed image (sensor_msgs/CompressedImage, contract version 2): `format` names jpeg or png
+/// (as "jpeg", "png" or image_transport's "bgr8; jpeg compressed bgr8"). Decoded, then made mono
+/// exactly as the raw encodings are (colour: BGR to grey; 16-bit png: the upper 8 bits). Rejects
+/// other formats, data that does not decode, and a size other than expected (when > 0).
+bool toCameraFrame(const sensor_msgs::CompressedImage& msg, int expected_width, int expected_height, CameraFrame* out,
+                   std::string* why);
+
+/// The image message types the contract allows on the camera topic.
+inline constexpr const char* kRawImageType = "sensor_msgs/Image";
+inline constexpr const char* kCompressedImageType = "sensor_msgs/CompressedImage";
 
 }  // namespace vims

@@ -39,8 +39,9 @@ class SequenceBagReader {
   };
 
   /// Opens the bag. Throws std::runtime_error if it cannot be opened or if a contract topic
-  /// has the wrong message type (the message names the topic). Absent topics are listed by
-  /// missingTopics(): the caller decides which sensors it cannot run without.
+  /// has the wrong message type (the message names the topic). The camera topic may hold
+  /// sensor_msgs/Image or sensor_msgs/CompressedImage (jpeg, png): the reader follows its type. Absent topics are
+  /// listed by missingTopics(): the caller decides which sensors it cannot run without.
   SequenceBagReader(const std::string& bag_path, const SequenceConfig& config);
   ~SequenceBagReader();
 
@@ -49,6 +50,8 @@ class SequenceBagReader {
   /// Contract topics (as named by the sequence YAML) with no messages in the bag.
   const std::vector<std::string>& missingTopics() const { return missing_topics_; }
   bool hasTopic(const std::string& topic) const;
+  /// The camera topic holds sensor_msgs/CompressedImage.
+  bool compressedImages() const { return compressed_images_; }
   /// Throws std::runtime_error naming `topic` if the bag does not have it.
   void requireTopic(const std::string& topic) const;
 
@@ -62,6 +65,7 @@ class SequenceBagReader {
   double end_time_ = 0.0;
   std::string bag_path_;
   std::vector<std::string> missing_topics_;
+  bool compressed_images_ = false;
 };
 
 }  // namespace vims

@@ -50,8 +50,11 @@ struct SimOptions {
   double static_start = 3.0;  ///< [s]
   double camera_delay = 0.0;  ///< [s] image stamp = exposure time + delay
   DropoutSpans spans;
-  double start_time = 1700000000.0;    ///< bag-clock time of the sequence start [s]
-  bool lz4 = false;                    ///< lz4-compressed bag chunks
+  double start_time = 1700000000.0;  ///< bag-clock time of the sequence start [s]
+  bool lz4 = false;                  ///< lz4-compressed bag chunks
+  /// "raw" (sensor_msgs/Image mono8), "png" or "jpeg" (sensor_msgs/CompressedImage on
+  /// <image topic>/compressed, as image_transport's compressed transport publishes).
+  std::string image_format = "raw";
   int render_threads = 0;              ///< 0: one per hardware thread
   TerrainOptions terrain;              ///< default: the flat seabed z = 0
   std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold

@@ -1,6 +1,7 @@
 #include "bag_sink.h"
 
 #include <geometry_msgs/PoseStamped.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
@@ -8,6 +9,7 @@
 #include <sensor_msgs/Range.h>
 
 #include <cstring>
+#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 namespace vims {
@@ -23,8 +25,11 @@ ros::Time toRosTime(int64_t stamp_ns) {
 }  // namespace
 
 BagSink::BagSink(const std::string& path, bool lz4, const SequenceConfig& config, const SonarParams& sonar,
-                 const ImuNoiseParams& imu)
-    : config_(config), sonar_(sonar) {
+                 const ImuNoiseParams& imu, const std::string& image_format)
+    : config_(config), sonar_(sonar), image_format_(image_format) {
+  if (image_format_ != "raw" && image_format_ != "png" && image_format_ != "jpeg") {
+    throw std::invalid_argument("BagSink: unknown image format '" + image_format_ + "'");
+  }
   bag_.open(path, rosbag::bagmode::Write);
   bag_.setCompression(lz4 ? rosbag::compression::LZ4 : rosbag::compression::Uncompressed);
   // Per-sample variances of the white noise (density^2 * rate), for consumers that use them.
@@ -66,6 +71,21 @@ void BagSink::imu(int64_t stamp_ns, const ImuMeasurement& m) {
 
 void BagSink::image(int64_t stamp_ns, const cv::Mat& mono8) {
   if (mono8.type() != CV_8UC1) throw std::invalid_argument("BagSink::image: expected a CV_8UC1 image");
+  if (image_format_ != "raw") {
+    sensor_msgs::CompressedImage msg;
+    msg.header.seq = image_seq_;
+    msg.header.stamp = toRosTime(stamp_ns);
+    msg.header.frame_id = "camera";
+    msg.format = "mono8; " + image_format_ + " compressed mono8";  // as image_transport writes it
+    const std::vector<int> params = image_format_ == "jpeg" ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, 95}
+                                                            : std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 3};
+    if (!cv::imencode(image_format_ == "jpeg" ? ".jpg" : ".png", mono8, msg.data, params)) {
+      throw std::runtime_error("BagSink: cannot encode a frame as " + image_format_);
+    }
+    ++image_seq_;
+    bag_.write(config_.topics.image, msg.header.stamp, msg);
+    return;
+  }
   sensor_msgs::Image msg;
   msg.header.seq = image_seq_++;
   msg.header.stamp = toRosTime(stamp_ns);

@@ -17,8 +17,9 @@ namespace sim {
 class BagSink : public SimSink {
  public:
   /// Opens `path` for writing (throws rosbag::BagException on failure).
+  /// `image_format`: "raw" (sensor_msgs/Image mono8), "png" or "jpeg" (sensor_msgs/CompressedImage).
   BagSink(const std::string& path, bool lz4, const SequenceConfig& config, const SonarParams& sonar,
-          const ImuNoiseParams& imu);
+          const ImuNoiseParams& imu, const std::string& image_format = "raw");
   ~BagSink() override;
 
   void imu(int64_t stamp_ns, const ImuMeasurement& measurement) override;
@@ -37,6 +38,7 @@ class BagSink : public SimSink {
   rosbag::Bag bag_;
   SequenceConfig config_;
   SonarParams sonar_;
+  std::string image_format_;
   double gyro_variance_;
   double accel_variance_;
   uint32_t image_seq_ = 0, imu_seq_ = 0, sonar_seq_ = 0, mag_seq_ = 0, pose_seq_ = 0, pressure_seq_ = 0;

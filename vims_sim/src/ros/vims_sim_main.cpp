@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
     }
     std::fflush(stdout);
 
-    BagSink sink(paths.bag, options->lz4, setup.config, setup.sonar, setup.imu);
+    BagSink sink(paths.bag, options->lz4, setup.config, setup.sonar, setup.imu, options->image_format);
     int last_percent = -1;
     const GenerationStats stats = generateSequence(setup, sink, [&](double sim_time, double duration, double wall) {
       const int percent = static_cast<int>(100.0 * sim_time / duration + 0.5);
