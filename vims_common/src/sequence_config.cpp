@@ -6,6 +6,16 @@
 #include <stdexcept>
 
 namespace vims {
+
+const char* distortionModelName(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kRadtan:
+      return "radtan";
+    case DistortionModel::kEquidistant:
+      return "equidistant";
+  }
+  return "?";
+}
 namespace {
 
 void collectUnknown(const ConfigReader& reader, const std::set<std::string>& allowed,
@@ -43,10 +53,20 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   cfg.topics.pressure = topics.get<std::string>("pressure", cfg.topics.pressure);
 
   const ConfigReader cam = root.child("camera");
-  collectUnknown(cam, {"model", "width", "height", "intrinsics", "distortion", "T_b_c", "rate_hz"}, unknown_keys);
+  collectUnknown(cam, {"model", "width", "height", "intrinsics", "distortion_model", "distortion", "T_b_c", "rate_hz"},
+                 unknown_keys);
   cfg.camera.model = cam.get<std::string>("model");
   if (cfg.camera.model != "pinhole")
-    throw cam.error("model", "only 'pinhole' (with radtan distortion) is supported, got '" + cfg.camera.model + "'");
+    throw cam.error(
+        "model", "only 'pinhole' (with radtan or equidistant distortion) is supported, got '" + cfg.camera.model + "'");
+  const std::string distortion_model = cam.get<std::string>("distortion_model", "radtan");
+  if (distortion_model == "radtan") {
+    cfg.camera.distortion_model = DistortionModel::kRadtan;
+  } else if (distortion_model == "equidistant") {
+    cfg.camera.distortion_model = DistortionModel::kEquidistant;
+  } else {
+    throw cam.error("distortion_model", "expected radtan or equidistant, got '" + distortion_model + "'");
+  }
   cfg.camera.width = cam.get<int>("width");
   cfg.camera.height = cam.get<int>("height");
   if (cfg.camera.width <= 0) throw cam.error("width", "must be a positive number of pixels");
@@ -145,8 +165,12 @@ std::string SequenceConfig::toYaml() const {
      << "  model: " << camera.model << "\n"
      << "  width: " << camera.width << "\n"
      << "  height: " << camera.height << "\n"
-     << "  intrinsics: [" << camera.fx << ", " << camera.fy << ", " << camera.cx << ", " << camera.cy << "]\n"
-     << "  distortion: [" << camera.distortion[0] << ", " << camera.distortion[1] << ", " << camera.distortion[2]
+     << "  intrinsics: [" << camera.fx << ", " << camera.fy << ", " << camera.cx << ", " << camera.cy << "]\n";
+  // Version 1 files have no distortion_model: radtan is written as before.
+  if (camera.distortion_model != DistortionModel::kRadtan) {
+    os << "  distortion_model: " << distortionModelName(camera.distortion_model) << "\n";
+  }
+  os << "  distortion: [" << camera.distortion[0] << ", " << camera.distortion[1] << ", " << camera.distortion[2]
      << ", " << camera.distortion[3] << "]\n"
      << "  T_b_c: " << transformToYaml(camera.T_b_c) << "\n"
      << "  rate_hz: " << camera.rate_hz << "\n";

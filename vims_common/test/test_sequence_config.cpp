@@ -161,3 +161,23 @@ TEST(SequenceConfig, BadPressureValuesNameTheirKey) {
       std::string::npos);
   EXPECT_NE(errorOf(replace(yaml, "T_b_p: [1,0,0,-0.4,", "T_b_p: [1,0,0,")).find("pressure.T_b_p"), std::string::npos);
 }
+
+// Contract version 2: camera.distortion_model radtan (the default, version 1) or equidistant.
+TEST(SequenceConfig, DistortionModelParsesRoundTripsAndRejectsOthers) {
+  const std::string base = kContractExample;
+  EXPECT_EQ(SequenceConfig::fromReader(ConfigReader::fromString(base)).camera.distortion_model,
+            vims::DistortionModel::kRadtan);
+  const std::string fisheye = replace(base, "  distortion: [", "  distortion_model: equidistant\n  distortion: [");
+  std::vector<std::string> unknown;
+  const auto cfg = SequenceConfig::fromReader(ConfigReader::fromString(fisheye), &unknown);
+  EXPECT_EQ(cfg.camera.distortion_model, vims::DistortionModel::kEquidistant);
+  EXPECT_TRUE(unknown.empty()) << unknown.front();
+  const std::string path = ::testing::TempDir() + "/vims_seq_fisheye.yaml";
+  cfg.save(path);
+  EXPECT_EQ(SequenceConfig::load(path).camera.distortion_model, vims::DistortionModel::kEquidistant);
+  std::remove(path.c_str());
+  const std::string bad = replace(base, "  distortion: [", "  distortion_model: plumb_bob\n  distortion: [");
+  EXPECT_NE(errorOf(bad).find("camera.distortion_model: expected radtan or equidistant, got 'plumb_bob'"),
+            std::string::npos)
+      << errorOf(bad);
+}

@@ -2,7 +2,6 @@
 # Included from vims_estimator/CMakeLists.txt with include(tracking/tracking.cmake); paths are
 # relative to this file so the include works from any directory.
 add_library(vims_tracking_core
-  ${CMAKE_CURRENT_LIST_DIR}/src/camera_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/tracker_options.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/tracking_stages.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/feature_tracker.cpp
@@ -12,7 +11,6 @@ target_include_directories(vims_tracking_core PUBLIC ${CMAKE_CURRENT_LIST_DIR}/i
 target_link_libraries(vims_tracking_core PUBLIC vims_common_core ${OpenCV_LIBS} Eigen3::Eigen)
 
 vims_add_unit_test(test_vims_tracking
-  ${CMAKE_CURRENT_LIST_DIR}/test/test_camera_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test/test_tracker_options.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test/test_tracking_stages.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test/test_feature_tracker.cpp

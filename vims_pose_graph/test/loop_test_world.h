@@ -13,12 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/keyframe_data.h"
 #include "vims_common/magnetic_signature.h"
 #include "vims_common/sequence_config.h"
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/vocabulary.h"
-#include "vims_sim/camera_model.h"
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/seabed_renderer.h"
 #include "vims_sim/seabed_texture.h"
@@ -141,7 +141,7 @@ class TestWorld {
     uint64_t id = static_cast<uint64_t>(t * 1000.0) * 1000;
     for (const cv::Point2f& c : corners) {
       const Eigen::Vector2d pixel(c.x, c.y);
-      const Eigen::Vector3d ray_c = model_.unproject(pixel);
+      const Eigen::Vector3d ray_c = *model_.unprojectPixel(pixel);
       const Eigen::Vector3d ray_w = T_w_c.linear() * ray_c;
       if (ray_w.z() >= -1e-6) continue;
       const double s = -T_w_c.translation().z() / ray_w.z();
@@ -156,7 +156,7 @@ class TestWorld {
   }
 
   CameraCalibration camera_;
-  sim::PinholeRadtanCamera model_;
+  CameraModel model_;
   std::shared_ptr<sim::SeabedTexture> texture_;
   sim::SeabedRenderer renderer_;
   mutable sim::SeabedRenderer::Workspace workspace_;

@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-#include "vims_sim/camera_model.h"
+#include "vims_common/camera_model.h"
 
 namespace vims {
 namespace sim {
@@ -61,14 +61,23 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
       terrain_(terrain && !terrain->isFlat() ? std::move(terrain) : nullptr) {
   if (!texture_) throw std::invalid_argument("SeabedRenderer: no texture");
   if (calib_.width <= 1 || calib_.height <= 1) throw std::invalid_argument("SeabedRenderer: bad image size");
-  const PinholeRadtanCamera camera(calib_);
+  const CameraModel camera(calib_);
+  // Every pixel's viewing ray (z = 1). A lens whose inverse fails inside the image cannot be
+  // rendered: say so instead of drawing garbage.
+  auto rayOf = [&camera](double u, double v) {
+    const std::optional<Eigen::Vector3d> ray = camera.unprojectPixel(Eigen::Vector2d(u, v));
+    if (!ray) {
+      throw std::invalid_argument("SeabedRenderer: the camera model cannot unproject pixel (" + std::to_string(u) +
+                                  ", " + std::to_string(v) + "): distortion too strong for the image size");
+    }
+    return *ray;
+  };
   const int width = calib_.width, height = calib_.height;
   const size_t n = static_cast<size_t>(width) * height;
   // Undistort every pixel's ray once, including a one-pixel border for the pixel angles.
   std::vector<Eigen::Vector3d> unit((width + 1) * static_cast<size_t>(height + 1));
   for (int v = 0; v <= height; ++v)
-    for (int u = 0; u <= width; ++u)
-      unit[static_cast<size_t>(v) * (width + 1) + u] = camera.unproject(Eigen::Vector2d(u, v)).normalized();
+    for (int u = 0; u <= width; ++u) unit[static_cast<size_t>(v) * (width + 1) + u] = rayOf(u, v).normalized();
   rays_c_.resize(n);
   ray_norm_.resize(n);
   pixel_angle_.resize(n);
@@ -77,7 +86,7 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
       const size_t i = static_cast<size_t>(v) * width + u;
-      const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(u, v));
+      const Eigen::Vector3d ray = rayOf(u, v);
       rays_c_[i] = ray.cast<float>();
       ray_norm_[i] = static_cast<float>(ray.norm());
       const Eigen::Vector3d& here = unit[static_cast<size_t>(v) * (width + 1) + u];

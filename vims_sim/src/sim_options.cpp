@@ -254,6 +254,11 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.pressure.spike_fraction = parseDouble(flag, value);
     } else if (flag == "--start-time") {
       options.start_time = parseDouble(flag, value);
+    } else if (flag == "--distortion-model") {
+      if (value != "radtan" && value != "equidistant") {
+        throw argError(flag, "expected radtan or equidistant, got '" + value + "'");
+      }
+      options.distortion_model = value;
     } else if (flag == "--image-format") {
       if (value != "raw" && value != "png" && value != "jpeg")
         throw argError(flag, "expected raw, png or jpeg, got '" + value + "'");
@@ -302,6 +307,8 @@ Options:
   --pressure-off A:B       no pressure messages in [A, B) (repeatable; needs --pressure)
   --start-time T           bag-clock time of the sequence start (default 1700000000.0)
   --lz4                    write lz4-compressed bag chunks
+  --distortion-model M     radtan (default: pinhole, 60 deg across) or equidistant (fisheye behind
+                           a dome port, about 110 deg across)
   --image-format F         raw (default: sensor_msgs/Image mono8), png (lossless) or jpeg (quality 95):
                            sensor_msgs/CompressedImage on /cam0/image_raw/compressed
   --threads N              render threads (default 0: one per hardware thread)

@@ -163,6 +163,15 @@ SimSetup buildSimSetup(const SimOptions& options) {
   cfg.camera.cy = 239.5 + rig.uniform(-4.0, 4.0);
   cfg.camera.distortion = {rig.uniform(-0.08, -0.04), rig.uniform(0.0, 0.015), rig.uniform(-5e-4, 5e-4),
                            rig.uniform(-5e-4, 5e-4)};
+  if (options.distortion_model == "equidistant") {
+    // A fisheye behind a dome port: r = f theta_d, so 320 px at f = 290 px is 63 deg off axis
+    // (after the k1..k4 series, typical magnitudes of calibrated fisheyes).
+    cfg.camera.distortion_model = DistortionModel::kEquidistant;
+    cfg.camera.fx = 290.0 * (1.0 + rig.uniform(-0.01, 0.01));
+    cfg.camera.fy = cfg.camera.fx * (1.0 + rig.uniform(-0.003, 0.003));
+    cfg.camera.distortion = {rig.uniform(-0.03, -0.01), rig.uniform(0.0, 0.01), rig.uniform(-0.003, 0.0),
+                             rig.uniform(0.0, 0.001)};
+  }
   cfg.camera.rate_hz = 10.0;
   if (options.image_format != "raw") cfg.topics.image += "/compressed";  // image_transport's name
   // Camera looking down, image "up" towards the bow: x_c = -y_b (starboard), y_c = -x_b, z_c = -z_b.

@@ -10,7 +10,7 @@
 #include <opencv2/video/tracking.hpp>
 #include <thread>
 
-#include "vims_sim/camera_model.h"
+#include "vims_common/camera_model.h"
 #include "vims_sim/seabed_renderer.h"
 #include "vims_sim/seabed_texture.h"
 #include "vims_sim/sim_setup.h"
@@ -50,22 +50,23 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-TEST(PinholeRadtanCamera, ProjectUnprojectRoundTrip) {
-  const PinholeRadtanCamera camera(testCalibration());
+// The simulator renders with the one camera model of VIMS (vims_common/camera_model.h).
+TEST(SimCamera, ProjectUnprojectRoundTrip) {
+  const vims::CameraModel camera(testCalibration());
   double worst = 0.0;
   for (double v = 0; v < 480; v += 23.5) {
     for (double u = 0; u < 640; u += 31.25) {
-      const Eigen::Vector3d ray = camera.unproject(Eigen::Vector2d(u, v));
-      Eigen::Vector2d back;
-      ASSERT_TRUE(camera.project(2.7 * ray, &back));
-      worst = std::max(worst, (back - Eigen::Vector2d(u, v)).norm());
+      const std::optional<Eigen::Vector3d> ray = camera.unprojectPixel(Eigen::Vector2d(u, v));
+      ASSERT_TRUE(ray.has_value());
+      const std::optional<Eigen::Vector2d> back = camera.project(2.7 * *ray);
+      ASSERT_TRUE(back.has_value());
+      worst = std::max(worst, (*back - Eigen::Vector2d(u, v)).norm());
     }
   }
   EXPECT_LT(worst, 1e-9);
-  Eigen::Vector2d pixel;
-  EXPECT_FALSE(camera.project(Eigen::Vector3d(0, 0, -1), &pixel));
+  EXPECT_FALSE(camera.project(Eigen::Vector3d(0, 0, -1)).has_value());
   // The principal point sees straight ahead.
-  EXPECT_LT((camera.unproject(Eigen::Vector2d(321.0, 238.0)) - Eigen::Vector3d(0, 0, 1)).norm(), 1e-12);
+  EXPECT_LT((*camera.unprojectPixel(Eigen::Vector2d(321.0, 238.0)) - Eigen::Vector3d(0, 0, 1)).norm(), 1e-12);
 }
 
 TEST(SeabedTexture, DeterministicPerWorldSeed) {
@@ -179,7 +180,7 @@ struct TrackingStats {
 /// the true seabed: the plane z = 0, or the terrain) projected into frame k+1 with the true poses.
 TrackingStats trackAlongTheTrajectory(const SimSetup& setup, const std::vector<double>& start_times) {
   const auto& camera_calibration = setup.config.camera;
-  const PinholeRadtanCamera camera(camera_calibration);
+  const vims::CameraModel camera(camera_calibration);
   auto texture = std::make_shared<SeabedTexture>(setup.options.worldSeed());
   const bool flat = setup.terrain->isFlat();
   const SeabedRenderer renderer(camera_calibration, texture, UnderwaterOptics(), flat ? nullptr : setup.terrain);
@@ -208,20 +209,21 @@ TrackingStats trackAlongTheTrajectory(const SimSetup& setup, const std::vector<d
           if (!status[i] || !status_back[i] || cv::norm(p0[i] - p0_back[i]) > 0.5) continue;
           ++survived;
           // Where the seabed point seen at p0 must appear in the new image.
-          const Eigen::Vector3d ray_w = previous_T_w_c.linear() * camera.unproject(Eigen::Vector2d(p0[i].x, p0[i].y));
+          const Eigen::Vector3d ray_w =
+              previous_T_w_c.linear() * *camera.unprojectPixel(Eigen::Vector2d(p0[i].x, p0[i].y));
           const Eigen::Vector3d origin = previous_T_w_c.translation();
           Eigen::Vector3d ground = origin - origin.z() / ray_w.z() * ray_w;
-          Eigen::Vector2d predicted;
           if (!flat) {
-            if (camera.project(T_w_c.inverse() * ground, &predicted)) {
-              flat_errors.push_back((predicted - Eigen::Vector2d(p1[i].x, p1[i].y)).norm());
+            if (const auto predicted = camera.project(T_w_c.inverse() * ground)) {
+              flat_errors.push_back((*predicted - Eigen::Vector2d(p1[i].x, p1[i].y)).norm());
             }
             TerrainHit hit;
             if (!setup.terrain->intersectRay(origin, ray_w, 100.0, &hit)) continue;
             ground = hit.point;
           }
-          if (!camera.project(T_w_c.inverse() * ground, &predicted)) continue;
-          errors.push_back((predicted - Eigen::Vector2d(p1[i].x, p1[i].y)).norm());
+          const auto predicted = camera.project(T_w_c.inverse() * ground);
+          if (!predicted) continue;
+          errors.push_back((*predicted - Eigen::Vector2d(p1[i].x, p1[i].y)).norm());
         }
         stats.survival.push_back(p0.empty() ? 0.0 : survived / static_cast<double>(p0.size()));
         if (!errors.empty()) stats.geometry_error.push_back(median(errors));
@@ -293,7 +295,7 @@ TEST(SeabedRenderer, TiltedPlaneGeometryIsTheAnalyticIntersection) {
   auto terrain = std::make_shared<const SeabedTerrain>(params);
   auto texture = std::make_shared<SeabedTexture>(2);
   const vims::CameraCalibration calibration = testCalibration();
-  const PinholeRadtanCamera camera(calibration);
+  const vims::CameraModel camera(calibration);
   const SeabedRenderer tilted(calibration, texture, UnderwaterOptics(), terrain);
   const SeabedRenderer flat(calibration, texture);
   Eigen::Isometry3d T_w_c = downwardCamera(2.0, -3.0, 3.0);
@@ -308,7 +310,7 @@ TEST(SeabedRenderer, TiltedPlaneGeometryIsTheAnalyticIntersection) {
     int hits = 0;
     for (int v = 0; v < calibration.height; v += 7) {
       for (int u = 0; u < calibration.width; u += 7) {
-        const Eigen::Vector3d ray_c = camera.unproject(Eigen::Vector2d(u, v));
+        const Eigen::Vector3d ray_c = *camera.unprojectPixel(Eigen::Vector2d(u, v));
         const Eigen::Vector3d d = T_w_c.linear() * ray_c, o = T_w_c.translation();
         const double t = -normal.dot(o) / normal.dot(d);
         ASSERT_GT(t, 0.0);
@@ -335,7 +337,7 @@ TEST(SeabedRenderer, TerrainHitsLieOnTheSurface) {
   SimOptions options = trackingOptions();
   options.terrain.preset = "rough";
   const SimSetup setup = buildSimSetup(options);
-  const PinholeRadtanCamera camera(setup.config.camera);
+  const vims::CameraModel camera(setup.config.camera);
   const SeabedRenderer renderer(setup.config.camera, std::make_shared<SeabedTexture>(1), UnderwaterOptics(),
                                 setup.terrain);
   double worst = 0.0;
@@ -346,7 +348,7 @@ TEST(SeabedRenderer, TerrainHitsLieOnTheSurface) {
     for (int v = 0; v < g.hit.rows; v += 3) {
       for (int u = 0; u < g.hit.cols; u += 3) {
         ASSERT_EQ(g.hit.at<uint8_t>(v, u), 1);
-        const Eigen::Vector3d ray_c = camera.unproject(Eigen::Vector2d(u, v));
+        const Eigen::Vector3d ray_c = *camera.unprojectPixel(Eigen::Vector2d(u, v));
         const Eigen::Vector3d p = T_w_c * (ray_c * (g.range.at<float>(v, u) / ray_c.norm()));
         worst = std::max(worst, std::abs(p.z() - setup.terrain->height(p.x(), p.y())));
         ++hits;

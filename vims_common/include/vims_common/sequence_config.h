@@ -22,13 +22,22 @@ struct TopicNames {
   std::string pressure = "/pressure";
 };
 
-/// Pinhole camera with radial-tangential (k1, k2, p1, p2) distortion.
+/// The lens distortion of the contract's pinhole camera (`camera.distortion_model`, version 2).
+enum class DistortionModel {
+  kRadtan,       ///< radial-tangential [k1, k2, p1, p2] (OpenCV's 4-parameter model); the default
+  kEquidistant,  ///< fisheye, Kannala-Brandt [k1, k2, k3, k4] (OpenCV's fisheye module)
+};
+/// "radtan" / "equidistant" (the YAML spelling).
+const char* distortionModelName(DistortionModel model);
+
+/// Pinhole camera with radtan or equidistant distortion (vims_common/camera_model.h).
 struct CameraCalibration {
   std::string model = "pinhole";
   int width = 640;
   int height = 480;
   double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::array<double, 4> distortion{{0, 0, 0, 0}};           ///< k1, k2, p1, p2
+  DistortionModel distortion_model = DistortionModel::kRadtan;
+  std::array<double, 4> distortion{{0, 0, 0, 0}};           ///< radtan: k1, k2, p1, p2; equidistant: k1..k4
   Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();  ///< camera optical frame in body
   double rate_hz = 10.0;
 };

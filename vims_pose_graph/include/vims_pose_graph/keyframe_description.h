@@ -63,10 +63,10 @@ double harrisResponse(const cv::Mat& image, const cv::Point2f& pt, int block_siz
 /// value when the disc leaves the image.
 double intensityCentroidAngleDeg(const cv::Mat& image, const cv::Point2f& pt, int radius = 15);
 
-/// Undistorts pixels (radial-tangential k1 k2 p1 p2) to normalised coordinates.
+/// Undistorts pixels to normalised coordinates with the sequence's camera model (CameraModel).
 std::vector<Eigen::Vector2d> undistortPixels(const CameraCalibration& camera, const std::vector<cv::Point2f>& pixels);
 
-/// Projects a point in the camera frame to distorted pixels; false behind the camera.
+/// Projects a point in the camera frame to distorted pixels (CameraModel); false behind the camera.
 bool projectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& p_c, Eigen::Vector2d* pixel);
 
 /// The ORB pyramid of a mono8 image: level l = level l-1 resized by 1/scale_factor with

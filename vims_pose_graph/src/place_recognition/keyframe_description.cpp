@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "vims_common/camera_model.h"
+
 namespace vims {
 
 namespace {
@@ -148,31 +150,23 @@ double intensityCentroidAngleDeg(const cv::Mat& image, const cv::Point2f& pt, in
 }
 
 std::vector<Eigen::Vector2d> undistortPixels(const CameraCalibration& camera, const std::vector<cv::Point2f>& pixels) {
+  const CameraModel model(camera);
   std::vector<Eigen::Vector2d> out;
-  if (pixels.empty()) return out;
-  const cv::Matx33d K(camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0);
-  const cv::Vec4d D(camera.distortion[0], camera.distortion[1], camera.distortion[2], camera.distortion[3]);
-  std::vector<cv::Point2f> normalized;
-  // More iterations than OpenCV's default 5: keypoints near the corners of a wide lens need them
-  // for sub-0.01 px accuracy, and this runs once per keypoint per keyframe.
-  cv::undistortPoints(pixels, normalized, K, D, cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 1e-9));
-  out.reserve(normalized.size());
-  for (const cv::Point2f& p : normalized) out.emplace_back(p.x, p.y);
+  out.reserve(pixels.size());
+  for (const cv::Point2f& p : pixels) {
+    const Eigen::Vector2d pixel(p.x, p.y);
+    // The inverse fails only where a lens folds over, never inside the image of a usable
+    // calibration (test_camera_model); the undistorted pinhole ray then keeps the list aligned.
+    const std::optional<Eigen::Vector2d> m = model.normalizedFromPixel(pixel);
+    out.push_back(m ? *m : Eigen::Vector2d((pixel.x() - camera.cx) / camera.fx, (pixel.y() - camera.cy) / camera.fy));
+  }
   return out;
 }
 
 bool projectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& p_c, Eigen::Vector2d* pixel) {
-  if (!(p_c.z() > 1e-9) || !p_c.allFinite()) return false;
-  const double x = p_c.x() / p_c.z();
-  const double y = p_c.y() / p_c.z();
-  const double k1 = camera.distortion[0], k2 = camera.distortion[1];
-  const double p1 = camera.distortion[2], p2 = camera.distortion[3];
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
-  const double xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-  const double yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-  *pixel = Eigen::Vector2d(camera.fx * xd + camera.cx, camera.fy * yd + camera.cy);
+  const std::optional<Eigen::Vector2d> projected = CameraModel(camera).project(p_c);
+  if (!projected) return false;
+  *pixel = *projected;
   return true;
 }
 

@@ -55,6 +55,9 @@ struct SimOptions {
   /// "raw" (sensor_msgs/Image mono8), "png" or "jpeg" (sensor_msgs/CompressedImage on
   /// <image topic>/compressed, as image_transport's compressed transport publishes).
   std::string image_format = "raw";
+  /// The camera's lens: "radtan" (a mildly distorted pinhole, 60 deg across) or "equidistant"
+  /// (a fisheye behind a dome port, Kannala-Brandt, about 110 deg across).
+  std::string distortion_model = "radtan";
   int render_threads = 0;              ///< 0: one per hardware thread
   TerrainOptions terrain;              ///< default: the flat seabed z = 0
   std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold

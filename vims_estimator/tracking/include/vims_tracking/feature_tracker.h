@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/log.h"
 #include "vims_common/sensor_data.h"
 #include "vims_common/sequence_config.h"
-#include "vims_tracking/camera_model.h"
 #include "vims_tracking/tracker_options.h"
 #include "vims_tracking/tracking_stages.h"
 

@@ -1,4 +1,4 @@
-#include "vims_tracking/camera_model.h"
+#include "vims_common/camera_model.h"
 
 #include <Eigen/LU>
 #include <cmath>
@@ -15,6 +15,8 @@ constexpr int kUndistortMaxIterations = 20;
 constexpr double kUndistortStepTolerance = 1e-12;
 // Accept a solution only if re-distorting it reproduces the input to this (normalised) error.
 constexpr double kUndistortResidualTolerance = 1e-9;
+// Below this normalised radius the equidistant model is the identity to double precision.
+constexpr double kTinyRadius = 1e-12;
 
 }  // namespace
 
@@ -25,16 +27,15 @@ CameraModel::CameraModel(const CameraCalibration& calibration)
       fy_(calibration.fy),
       cx_(calibration.cx),
       cy_(calibration.cy),
-      k1_(calibration.distortion[0]),
-      k2_(calibration.distortion[1]),
-      p1_(calibration.distortion[2]),
-      p2_(calibration.distortion[3]) {
+      distortion_model_(calibration.distortion_model),
+      coefficients_(calibration.distortion) {
   if (calibration.model != "pinhole") {
-    throw std::invalid_argument("CameraModel: only the pinhole model with radtan distortion is supported, got '" +
-                                calibration.model + "'");
+    throw std::invalid_argument(
+        "CameraModel: only the pinhole model (radtan or equidistant distortion) is supported, got '" +
+        calibration.model + "'");
   }
   if (width_ <= 0 || height_ <= 0) throw std::invalid_argument("CameraModel: image size must be positive");
-  const double numbers[] = {fx_, fy_, cx_, cy_, k1_, k2_, p1_, p2_};
+  const double numbers[] = {fx_, fy_, cx_, cy_, coefficients_[0], coefficients_[1], coefficients_[2], coefficients_[3]};
   for (double v : numbers) {
     if (!std::isfinite(v)) throw std::invalid_argument("CameraModel: intrinsics and distortion must be finite");
   }
@@ -42,20 +43,51 @@ CameraModel::CameraModel(const CameraCalibration& calibration)
 }
 
 Eigen::Vector2d CameraModel::distortNormalized(const Eigen::Vector2d& normalized, Eigen::Matrix2d* jacobian) const {
+  return distortion_model_ == DistortionModel::kEquidistant ? distortEquidistant(normalized, jacobian)
+                                                            : distortRadtan(normalized, jacobian);
+}
+
+Eigen::Vector2d CameraModel::distortEquidistant(const Eigen::Vector2d& m, Eigen::Matrix2d* jacobian) const {
+  const auto& [k1, k2, k3, k4] = coefficients_;
+  const double r2 = m.squaredNorm();
+  if (r2 < kTinyRadius * kTinyRadius) {
+    // theta_d / r -> 1 and its derivative -> 0 at the centre: the identity (to O(r^2)).
+    if (jacobian) jacobian->setIdentity();
+    return m;
+  }
+  const double r = std::sqrt(r2);
+  const double theta = std::atan(r);
+  const double t2 = theta * theta;
+  const double series = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)));
+  const double theta_d = theta * series;
+  const double scale = theta_d / r;
+  if (jacobian) {
+    // md = s(r) m with s = theta_d / r: d md / d m = s I + (ds/dr) m m^T / r, where
+    // ds/dr = (theta_d'(theta) theta'(r) - s) / r, theta'(r) = 1 / (1 + r^2) and
+    // theta_d'(theta) = 1 + 3 k1 theta^2 + 5 k2 theta^4 + 7 k3 theta^6 + 9 k4 theta^8.
+    const double dtheta_d = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
+    const double ds_dr = (dtheta_d / (1.0 + r2) - scale) / r;
+    *jacobian = scale * Eigen::Matrix2d::Identity() + (ds_dr / r) * (m * m.transpose());
+  }
+  return scale * m;
+}
+
+Eigen::Vector2d CameraModel::distortRadtan(const Eigen::Vector2d& normalized, Eigen::Matrix2d* jacobian) const {
+  const auto& [k1, k2, p1, p2] = coefficients_;
   const double x = normalized.x();
   const double y = normalized.y();
   const double xx = x * x, yy = y * y, xy = x * y;
   const double r2 = xx + yy;
-  const double radial = 1.0 + r2 * (k1_ + k2_ * r2);
-  const Eigen::Vector2d distorted(x * radial + 2.0 * p1_ * xy + p2_ * (r2 + 2.0 * xx),
-                                  y * radial + p1_ * (r2 + 2.0 * yy) + 2.0 * p2_ * xy);
+  const double radial = 1.0 + r2 * (k1 + k2 * r2);
+  const Eigen::Vector2d distorted(x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * xx),
+                                  y * radial + p1 * (r2 + 2.0 * yy) + 2.0 * p2 * xy);
   if (jacobian) {
     // d radial / d r2 = k1 + 2 k2 r2, and d r2 / d(x, y) = 2 (x, y).
-    const double dradial_dr2 = k1_ + 2.0 * k2_ * r2;
-    (*jacobian)(0, 0) = radial + 2.0 * xx * dradial_dr2 + 2.0 * p1_ * y + 6.0 * p2_ * x;
-    (*jacobian)(0, 1) = 2.0 * xy * dradial_dr2 + 2.0 * p1_ * x + 2.0 * p2_ * y;
+    const double dradial_dr2 = k1 + 2.0 * k2 * r2;
+    (*jacobian)(0, 0) = radial + 2.0 * xx * dradial_dr2 + 2.0 * p1 * y + 6.0 * p2 * x;
+    (*jacobian)(0, 1) = 2.0 * xy * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
     (*jacobian)(1, 0) = (*jacobian)(0, 1);
-    (*jacobian)(1, 1) = radial + 2.0 * yy * dradial_dr2 + 6.0 * p1_ * y + 2.0 * p2_ * x;
+    (*jacobian)(1, 1) = radial + 2.0 * yy * dradial_dr2 + 6.0 * p1 * y + 2.0 * p2 * x;
   }
   return distorted;
 }

@@ -1,10 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <opencv2/calib3d.hpp>
 #include <random>
 #include <stdexcept>
 
-#include "vims_tracking/camera_model.h"
+#include "vims_common/camera_model.h"
 
 namespace {
 
@@ -157,4 +158,65 @@ TEST(CameraModel, IsInImageHonoursBorder) {
   EXPECT_FALSE(camera.isInImage(Eigen::Vector2d(0, 0), 5.0));
   EXPECT_TRUE(camera.isInImage(Eigen::Vector2d(634, 474), 5.0));
   EXPECT_FALSE(camera.isInImage(Eigen::Vector2d(640, 10)));
+}
+
+namespace {
+
+// A fisheye behind a dome port (the simulator's equidistant rig): 110 deg across 640 px.
+vims::CameraCalibration fisheyeCalibration() {
+  vims::CameraCalibration c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = 291.5;
+  c.fy = 291.2;
+  c.cx = 319.1;
+  c.cy = 241.2;
+  c.distortion_model = vims::DistortionModel::kEquidistant;
+  c.distortion = {-0.0268, 0.00664, -0.00072, 0.00077};
+  return c;
+}
+
+}  // namespace
+
+// The equidistant model is OpenCV's fisheye model (the contract's definition): same pixels.
+TEST(CameraModelEquidistant, MatchesOpenCvFisheye) {
+  const vims::CameraCalibration calibration = fisheyeCalibration();
+  const vims::CameraModel camera(calibration);
+  const cv::Matx33d K(calibration.fx, 0, calibration.cx, 0, calibration.fy, calibration.cy, 0, 0, 1);
+  const cv::Vec4d D(calibration.distortion[0], calibration.distortion[1], calibration.distortion[2],
+                    calibration.distortion[3]);
+  std::vector<cv::Point3d> points;
+  for (double x = -2.0; x <= 2.0; x += 0.25)
+    for (double y = -1.5; y <= 1.5; y += 0.25) points.emplace_back(x, y, 1.0);
+  std::vector<cv::Point2d> expected;
+  cv::fisheye::projectPoints(points, expected, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const std::optional<Eigen::Vector2d> pixel = camera.project(Eigen::Vector3d(points[i].x, points[i].y, points[i].z));
+    ASSERT_TRUE(pixel.has_value());
+    EXPECT_LT((*pixel - Eigen::Vector2d(expected[i].x, expected[i].y)).norm(), 1e-6) << points[i];
+  }
+}
+
+TEST(CameraModelEquidistant, RoundTripOverTheWholeImageAndJacobians) {
+  const vims::CameraModel camera(fisheyeCalibration());
+  double worst = 0.0;
+  for (const Eigen::Vector2d& pixel : pixelsOverImage(camera, 8.0)) {
+    const std::optional<Eigen::Vector3d> ray = camera.unprojectPixel(pixel);
+    ASSERT_TRUE(ray.has_value()) << "pixel " << pixel.transpose();
+    worst = std::max(worst, (*camera.project(1.7 * *ray) - pixel).norm());
+  }
+  EXPECT_LT(worst, 1e-6);
+  const double h = 1e-7;
+  for (const Eigen::Vector2d& m :
+       {Eigen::Vector2d(0.3, -0.4), Eigen::Vector2d(-1.6, 0.9), Eigen::Vector2d(1e-9, 0), Eigen::Vector2d(0, 0)}) {
+    Eigen::Matrix2d analytic;
+    camera.distortNormalized(m, &analytic);
+    Eigen::Matrix2d numeric;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector2d dm = Eigen::Vector2d::Zero();
+      dm[k] = h;
+      numeric.col(k) = (camera.distortNormalized(m + dm) - camera.distortNormalized(m - dm)) / (2 * h);
+    }
+    EXPECT_LT((analytic - numeric).norm(), 1e-6) << "at " << m.transpose();
+  }
 }

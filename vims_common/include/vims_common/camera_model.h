@@ -1,7 +1,14 @@
 #pragma once
 /// @file camera_model.h
-/// @brief Pinhole camera with radial-tangential (k1, k2, p1, p2) distortion, as defined by the
-/// sensor data contract. Built from the sequence's vims::CameraCalibration, never hard-coded.
+/// @brief The one camera model of VIMS (tracker, loop verification, simulator): a pinhole camera
+/// with the contract's distortion models, radial-tangential (k1, k2, p1, p2; OpenCV's 4-parameter
+/// model) or equidistant (fisheye, Kannala-Brandt k1..k4; OpenCV's fisheye module). Built from the
+/// sequence's vims::CameraCalibration, never hard-coded.
+///
+/// Distortion of undistorted normalised coordinates m = (x, y), r = |m|:
+///   radtan       md = m (1 + k1 r^2 + k2 r^4) + (2 p1 x y + p2 (r^2 + 2 x^2), p1 (r^2 + 2 y^2) + 2 p2 x y)
+///   equidistant  theta = atan(r), theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8),
+///                md = (theta_d / r) m   (md = m at r = 0)
 ///
 /// Coordinates used throughout VIMS:
 ///   - camera frame point p_c = (X, Y, Z), optical frame (z forward, x right, y down);
@@ -10,6 +17,7 @@
 ///   - pixel u = (fx * md.x + cx, fy * md.y + cy).
 
 #include <Eigen/Core>
+#include <array>
 #include <optional>
 
 #include "vims_common/sequence_config.h"
@@ -30,6 +38,8 @@ class CameraModel {
   double cy() const { return cy_; }
   /// Mean focal length [px]; converts normalised-plane distances to (approximate) pixels.
   double meanFocal() const { return 0.5 * (fx_ + fy_); }
+
+  DistortionModel distortionModel() const { return distortion_model_; }
 
   /// Undistorted -> distorted normalised coordinates. `jacobian` (optional) receives d md / d m.
   Eigen::Vector2d distortNormalized(const Eigen::Vector2d& normalized, Eigen::Matrix2d* jacobian = nullptr) const;
@@ -65,7 +75,11 @@ class CameraModel {
   int width_;
   int height_;
   double fx_, fy_, cx_, cy_;
-  double k1_, k2_, p1_, p2_;
+  DistortionModel distortion_model_;
+  std::array<double, 4> coefficients_;  ///< radtan: k1, k2, p1, p2; equidistant: k1..k4
+
+  Eigen::Vector2d distortRadtan(const Eigen::Vector2d& m, Eigen::Matrix2d* jacobian) const;
+  Eigen::Vector2d distortEquidistant(const Eigen::Vector2d& m, Eigen::Matrix2d* jacobian) const;
 };
 
 }  // namespace vims
