@@ -25,7 +25,7 @@ ALLOWED = {
     "vims_sonar": {"vims_common"},
     "vims_magnetometer": {"vims_common"},
     "vims_tracking": {"vims_common"},
-    "vims_estimator": {"vims_common", "vims_tracking"},
+    "vims_estimator": {"vims_common"},
     "vims_pose_graph": {"vims_common"},
     "vims_sim": {"vims_common"},
     "vims_eval": {"vims_common", "vims_pose_graph"},

@@ -31,12 +31,12 @@ class LossFunction;
 #include "vims_common/sensor_data.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sonar_altitude.h"
+#include "vims_common/tracked_frame.h"
 #include "vims_estimator/estimator_options.h"
 #include "vims_estimator/imu_preintegration.h"
 #include "vims_estimator/marginalization.h"
 #include "vims_estimator/pressure_depth_filter.h"
 #include "vims_estimator/seabed_relief.h"
-#include "vims_tracking/feature_tracker.h"
 
 namespace vims {
 namespace vio_window {
