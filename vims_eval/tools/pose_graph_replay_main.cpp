@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/config_reader.h"
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
@@ -252,6 +253,7 @@ int main(int argc, char** argv) {
 
     // ---- diagnosis
     const CameraCalibration& cam = sequence.camera;
+    const CameraModel camera_model(cam);
     const Eigen::Isometry3d T_b_c = cam.T_b_c;
     const double focal = 0.5 * (cam.fx + cam.fy);
     KeyframeDescriber describer(options.featureOptions(), options.loop.harris_threshold, cam,
@@ -301,9 +303,9 @@ int main(int argc, char** argv) {
               if (z > 0.1) ratio.push_back(p_ca.z() / z);
             }
           }
-          Eigen::Vector2d uv;
-          if (!projectToPixel(cam, T_cb_ca * p_ca, &uv)) continue;
-          err.push_back((uv - it->second).norm());
+          const std::optional<Eigen::Vector2d> uv = camera_model.project(T_cb_ca * p_ca);
+          if (!uv) continue;
+          err.push_back((*uv - it->second).norm());
         }
         std::vector<double> sorted = err;
         std::sort(sorted.begin(), sorted.end());
@@ -381,8 +383,10 @@ int main(int argc, char** argv) {
           return std::hypot(a.x - b.x(), a.y - b.y()) <= r;
         };
         for (size_t p = 0; p < query.points.numPoints(); ++p) {
-          Eigen::Vector2d uv;
-          if (!projectToPixel(cam, T_cc_cq * (T_cq_odom * query.points.p_odom[p]), &uv)) continue;
+          const std::optional<Eigen::Vector2d> projected =
+              camera_model.project(T_cc_cq * (T_cq_odom * query.points.p_odom[p]));
+          if (!projected) continue;
+          const Eigen::Vector2d& uv = *projected;
           if (uv.x() < 0 || uv.y() < 0 || uv.x() >= cam.width || uv.y() >= cam.height) continue;
           ++visible;
           bool any = false, orb = false, tracked = false;

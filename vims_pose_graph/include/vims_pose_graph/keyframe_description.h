@@ -66,9 +66,6 @@ double intensityCentroidAngleDeg(const cv::Mat& image, const cv::Point2f& pt, in
 /// Undistorts pixels to normalised coordinates with the sequence's camera model (CameraModel).
 std::vector<Eigen::Vector2d> undistortPixels(const CameraCalibration& camera, const std::vector<cv::Point2f>& pixels);
 
-/// Projects a point in the camera frame to distorted pixels (CameraModel); false behind the camera.
-bool projectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& p_c, Eigen::Vector2d* pixel);
-
 /// The ORB pyramid of a mono8 image: level l = level l-1 resized by 1/scale_factor with
 /// INTER_LINEAR_EXACT to round(size / scale_factor^l), the images cv::ORB builds; at most `levels`
 /// levels, ending before one too small for ORB's 31 px patch.

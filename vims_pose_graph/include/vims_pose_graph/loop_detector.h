@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/log.h"
 #include "vims_common/sequence_config.h"
 #include "vims_pose_graph/keyframe_description.h"
@@ -162,6 +163,7 @@ class LoopVerifier {
 
   LoopDetectorOptions options_;
   CameraCalibration camera_;
+  CameraModel camera_model_;  ///< built once: the consistency check projects every inlier
   FeatureExtractionOptions features_;
   Eigen::Isometry3d T_b_c_;
   Eigen::Isometry3d T_c_b_;

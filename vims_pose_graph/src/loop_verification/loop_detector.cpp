@@ -305,7 +305,12 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
 
 LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera,
                            const FeatureExtractionOptions& features)
-    : options_(options), camera_(camera), features_(features), T_b_c_(camera.T_b_c), T_c_b_(camera.T_b_c.inverse()) {
+    : options_(options),
+      camera_(camera),
+      camera_model_(camera),
+      features_(features),
+      T_b_c_(camera.T_b_c),
+      T_c_b_(camera.T_b_c.inverse()) {
   options_.validate();
   if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || camera.width <= 0 || camera.height <= 0)
     throw std::invalid_argument("LoopVerifier: invalid camera calibration");
@@ -530,8 +535,9 @@ int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const Multi
     int confirmed = 0;
     for (const auto& [point, keypoint] : inliers) {
       (void)keypoint;
-      Eigen::Vector2d uv;
-      if (!projectToPixel(camera_, T_cn_odomq * points.p_odom[point], &uv)) continue;
+      const std::optional<Eigen::Vector2d> projected_uv = camera_model_.project(T_cn_odomq * points.p_odom[point]);
+      if (!projected_uv) continue;
+      const Eigen::Vector2d& uv = *projected_uv;
       if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() >= camera_.width || uv.y() >= camera_.height) continue;
       ++projected;
       // The neighbours were flown at about the match's altitude: the match's level window.

@@ -163,13 +163,6 @@ std::vector<Eigen::Vector2d> undistortPixels(const CameraCalibration& camera, co
   return out;
 }
 
-bool projectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& p_c, Eigen::Vector2d* pixel) {
-  const std::optional<Eigen::Vector2d> projected = CameraModel(camera).project(p_c);
-  if (!projected) return false;
-  *pixel = *projected;
-  return true;
-}
-
 // ---------------------------------------------------------------------------------------------
 // KeyframeDescriber
 // ---------------------------------------------------------------------------------------------
