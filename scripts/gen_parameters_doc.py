@@ -1,13 +1,17 @@
 #!/usr/bin/python3
-"""Generates docs/parameters.md from the committed config/*.yaml files.
+"""Generates docs/parameters.md from the committed config/*.yaml files and the options tables.
 
 The config files are the single source of every parameter's default and meaning (their comments
-explain each value; test_committed_configs checks that the values equal the code's defaults).
-This script turns them into one reference page so the documentation cannot drift from them:
+explain each value; test_committed_configs checks that the values equal the code's defaults); the
+code's option tables (vims_common/option_table.h) are the single source of the values each key
+accepts, printed by `vims_offline --list-options`. This script joins them into one reference page
+so the documentation cannot drift from either:
 
     /usr/bin/python3 scripts/gen_parameters_doc.py           # rewrite docs/parameters.md
-    /usr/bin/python3 scripts/gen_parameters_doc.py --check   # exit 1 if the page is stale or a key
-                                                             # has no comment (CTest test_parameters_doc)
+    /usr/bin/python3 scripts/gen_parameters_doc.py --check   # exit 1 if the page is stale, a key has no
+                                                             # comment, or the files and the tables
+                                                             # disagree on the keys (CTest test_parameters_doc)
+    [--vims-offline PATH]   the built runner (default: $VIMS_BUILD or _build, devel/lib/vims/vims_offline)
 
 Comment rules understood (the style of the config files): a comment block directly above one or
 more keys describes them all; an inline comment after a value describes that key only; a comment
@@ -16,6 +20,7 @@ block followed by a blank line is a section note; nesting is shown as dotted key
 import argparse
 import os
 import re
+import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -102,7 +107,15 @@ def parse_config(path):
     return file_note, rows
 
 
-def render():
+def option_table(vims_offline):
+    """{key path: allowed values} from the code's option tables."""
+    if not os.path.exists(vims_offline):
+        raise SystemExit("%s not found: build VIMS first (scripts/build.sh) or pass --vims-offline" % vims_offline)
+    text = subprocess.run([vims_offline, "--list-options"], check=True, capture_output=True, text=True).stdout
+    return dict(line.split("\t", 1) for line in text.splitlines() if line)
+
+
+def render(allowed):
     out = [
         "# Parameters",
         "",
@@ -110,9 +123,10 @@ def render():
         "     `/usr/bin/python3 scripts/gen_parameters_doc.py`. CTest test_parameters_doc fails when stale. -->",
         "",
         "Every tunable parameter of VIMS, with its default and meaning, as stated in the committed",
-        "configuration files (test_committed_configs checks that the files equal the code's defaults).",
-        "A key that is missing from a user's file keeps its default; an unknown key or an out-of-range",
-        "value stops the node or `vims_offline` with an error naming the key.",
+        "configuration files (test_committed_configs checks that the files equal the code's defaults),",
+        "and the values it accepts, as the code checks them (`vims_offline --list-options`). A key that",
+        "is missing from a user's file keeps its default; an unknown key or a value outside its allowed",
+        "range stops the node or `vims_offline` with an error naming the key.",
         "",
         "Where the values go: every entry point reads a *system configuration*, one or more YAML files",
         "whose top-level keys are the sections `sonar`, `magnetometer`, `tracker`, `estimator` and",
@@ -137,11 +151,12 @@ def render():
         out += ["## config/%s: %s" % (name, purpose), ""]
         if note:
             out += [note, ""]
-        out += ["| key | default | meaning |", "| --- | --- | --- |"]
+        out += ["| key | default | allowed | meaning |", "| --- | --- | --- | --- |"]
         for keys, values, meaning in rows:
             key_text = "<br>".join("`%s`" % k for k in keys)
             value_text = "<br>".join("`%s`" % v if v else "" for v in values)
-            out.append("| %s | %s | %s |" % (key_text, value_text, meaning.replace("|", "\\|")))
+            allowed_text = "<br>".join(allowed.get(k, "") for k in keys)
+            out.append("| %s | %s | %s | %s |" % (key_text, value_text, allowed_text, meaning.replace("|", "\\|")))
         out.append("")
     return "\n".join(out)
 
@@ -149,10 +164,24 @@ def render():
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="exit 1 if docs/parameters.md is stale")
+    build = os.environ.get("VIMS_BUILD", os.path.join(ROOT, "_build"))
+    parser.add_argument("--vims-offline", default=os.path.join(build, "devel", "lib", "vims", "vims_offline"))
     args = parser.parse_args()
     target = os.path.join(ROOT, "docs", "parameters.md")
-    text = render()
+    allowed = option_table(args.vims_offline)
+    text = render(allowed)
     if args.check:
+        documented = {k for name, _ in CONFIG_FILES if os.path.exists(os.path.join(ROOT, "config", name))
+                      for keys, _, _ in parse_config(os.path.join(ROOT, "config", name))[1]
+                      for k in keys if not k.endswith(".*")}
+        missing = sorted(set(allowed) - documented)
+        stray = sorted(documented - set(allowed))
+        if missing or stray:
+            if missing:
+                print("keys the code reads but no config/*.yaml states: " + ", ".join(missing))
+            if stray:
+                print("keys in config/*.yaml the code does not read: " + ", ".join(stray))
+            return 1
         undocumented = [k for name, _ in CONFIG_FILES if os.path.exists(os.path.join(ROOT, "config", name))
                          for keys, _, meaning in parse_config(os.path.join(ROOT, "config", name))[1]
                          if not meaning for k in keys]

@@ -1,38 +1,24 @@
 #include "vims_estimator/factor_options.h"
 
-#include <sstream>
+#include "vims_common/option_table.h"
 
 namespace vims {
 
-namespace {
-/// Indents every line of a YAML block by two spaces (to nest it under a key).
-std::string indent(const std::string& block) {
-  std::istringstream in(block);
-  std::ostringstream out;
-  std::string line;
-  while (std::getline(in, line)) out << "  " << line << "\n";
-  return out.str();
-}
-}  // namespace
-
-FactorOptions FactorOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"imu_preintegration", "reprojection", "sonar_depth", "marginalization"});
-  FactorOptions o;
-  o.imu_preintegration = ImuPreintegrationOptions::fromReader(reader.childOrEmpty("imu_preintegration"));
-  o.reprojection = ReprojectionOptions::fromReader(reader.childOrEmpty("reprojection"));
-  o.sonar_depth = SonarDepthOptions::fromReader(reader.childOrEmpty("sonar_depth"));
-  o.marginalization = MarginalizationOptions::fromReader(reader.childOrEmpty("marginalization"));
-  return o;
+const OptionTable<FactorOptions>& FactorOptions::optionTable() {
+  using O = FactorOptions;
+  static const auto table =
+      OptionTable<O>()
+          .section<ImuPreintegrationOptions>("imu_preintegration", &O::imu_preintegration,
+                                             ImuPreintegrationOptions::optionTable())
+          .section<ReprojectionOptions>("reprojection", &O::reprojection, ReprojectionOptions::optionTable())
+          .section<SonarDepthOptions>("sonar_depth", &O::sonar_depth, SonarDepthOptions::optionTable())
+          .section<MarginalizationOptions>("marginalization", &O::marginalization,
+                                           MarginalizationOptions::optionTable());
+  return table;
 }
 
-std::string FactorOptions::toYaml() const {
-  std::ostringstream os;
-  os << "imu_preintegration:\n"
-     << indent(imu_preintegration.toYaml()) << "reprojection:\n"
-     << indent(reprojection.toYaml()) << "sonar_depth:\n"
-     << indent(sonar_depth.toYaml()) << "marginalization:\n"
-     << indent(marginalization.toYaml());
-  return os.str();
-}
+FactorOptions FactorOptions::fromReader(const ConfigReader& reader) { return readOptions<FactorOptions>(reader); }
+
+std::string FactorOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 }  // namespace vims

@@ -4,6 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/option_table.h"
 #include "vims_estimator/so3.h"
 
 namespace vims {
@@ -51,22 +52,19 @@ void ImuNoiseParams::validate() const {
   requirePositiveFinite(accel_random_walk, "accel_random_walk");
 }
 
-ImuPreintegrationOptions ImuPreintegrationOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"max_accel_bias_change", "max_gyro_bias_change"});
-  ImuPreintegrationOptions o;
-  o.max_accel_bias_change = reader.get<double>("max_accel_bias_change", o.max_accel_bias_change);
-  o.max_gyro_bias_change = reader.get<double>("max_gyro_bias_change", o.max_gyro_bias_change);
-  requirePositive(reader, "max_accel_bias_change", o.max_accel_bias_change);
-  requirePositive(reader, "max_gyro_bias_change", o.max_gyro_bias_change);
-  return o;
+const OptionTable<ImuPreintegrationOptions>& ImuPreintegrationOptions::optionTable() {
+  using O = ImuPreintegrationOptions;
+  static const auto table = OptionTable<O>()
+                                .number("max_accel_bias_change", &O::max_accel_bias_change, Bounds::positive())
+                                .number("max_gyro_bias_change", &O::max_gyro_bias_change, Bounds::positive());
+  return table;
 }
 
-std::string ImuPreintegrationOptions::toYaml() const {
-  std::ostringstream os;
-  os << "max_accel_bias_change: " << max_accel_bias_change << "\n"
-     << "max_gyro_bias_change: " << max_gyro_bias_change << "\n";
-  return os.str();
+ImuPreintegrationOptions ImuPreintegrationOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<ImuPreintegrationOptions>(reader);
 }
+
+std::string ImuPreintegrationOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // Interval extraction

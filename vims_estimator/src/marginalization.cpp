@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/option_table.h"
 #include "vims_estimator/state_blocks.h"
 
 namespace vims {
@@ -47,24 +48,20 @@ void applyLoss(const ceres::LossFunction& loss, Eigen::VectorXd* r, Eigen::Matri
 
 }  // namespace
 
-MarginalizationOptions MarginalizationOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"eigenvalue_relative_threshold", "eigenvalue_absolute_threshold"});
-  MarginalizationOptions o;
-  o.eigenvalue_relative_threshold =
-      reader.get<double>("eigenvalue_relative_threshold", o.eigenvalue_relative_threshold);
-  o.eigenvalue_absolute_threshold =
-      reader.get<double>("eigenvalue_absolute_threshold", o.eigenvalue_absolute_threshold);
-  requireInRange(reader, "eigenvalue_relative_threshold", o.eigenvalue_relative_threshold, 1e-300, 1.0);
-  requirePositive(reader, "eigenvalue_absolute_threshold", o.eigenvalue_absolute_threshold);
-  return o;
+const OptionTable<MarginalizationOptions>& MarginalizationOptions::optionTable() {
+  using O = MarginalizationOptions;
+  static const auto table =
+      OptionTable<O>()
+          .number("eigenvalue_relative_threshold", &O::eigenvalue_relative_threshold, Bounds::closed(1e-300, 1.0))
+          .number("eigenvalue_absolute_threshold", &O::eigenvalue_absolute_threshold, Bounds::positive());
+  return table;
 }
 
-std::string MarginalizationOptions::toYaml() const {
-  std::ostringstream os;
-  os << "eigenvalue_relative_threshold: " << eigenvalue_relative_threshold << "\n"
-     << "eigenvalue_absolute_threshold: " << eigenvalue_absolute_threshold << "\n";
-  return os.str();
+MarginalizationOptions MarginalizationOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<MarginalizationOptions>(reader);
 }
+
+std::string MarginalizationOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 MarginalizationInfo::MarginalizationInfo(MarginalizationOptions options) : options_(options) {}
 

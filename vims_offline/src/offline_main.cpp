@@ -11,6 +11,8 @@
 
 #include "offline_pipeline.h"
 #include "vims_common/config_reader.h"
+#include "vims_common/option_table.h"
+#include "vims_system/system_config.h"
 
 namespace {
 
@@ -18,6 +20,7 @@ const char* kUsage =
     "usage: vims_offline --sequence DIR --out OUT [--config FILE]... [--mode MODE] [--map-load FILE]\n"
     "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--vio-only]\n"
     "                    [--quiet]\n"
+    "       vims_offline --list-options\n"
     "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
     "  --config FILE       system configuration: optional sections sonar, magnetometer, tracker, estimator,\n"
@@ -33,7 +36,9 @@ const char* kUsage =
     "                      the same for both\n"
     "  --vio-only          the odometry alone (no pose graph: no global.tum, loops.csv or map), to\n"
     "                      measure the VIO's own speed\n"
-    "  --quiet             no progress output\n";
+    "  --quiet             no progress output\n"
+    "  --list-options      print every key of the system configuration with the values it accepts\n"
+    "                      (tab-separated; defaults and meanings: docs/parameters.md) and exit\n";
 
 int usageError(const std::string& message) {
   std::cerr << "vims_offline: " << message << "\n" << kUsage;
@@ -54,6 +59,10 @@ int main(int argc, char** argv) {
     };
     if (arg == "--help" || arg == "-h") {
       std::cout << kUsage;
+      return 0;
+    } else if (arg == "--list-options") {
+      for (const vims::OptionRow& row : vims::SystemConfig::optionRows())
+        std::cout << row.key << "\t" << row.allowed << "\n";
       return 0;
     } else if (arg == "--sequence") {
       if (!value(&options.sequence_dir)) return usageError("--sequence needs a directory");

@@ -119,7 +119,7 @@ TEST(MagneticSubmaps, WeakSignaturesGapsAndSessionsCloseGroups) {
   for (size_t i = s2.size() / 2; i < s2.size(); ++i) s2[i].session = 1;
   EXPECT_EQ(build(s2, o).size(), 2u);
   // Weak signatures (below min_amplitude_tesla) are not mapped.
-  o.min_amplitude_tesla = 1.0;
+  o.min_amplitude_tesla = 1e-3;  // the largest allowed, far above a coil signature (uT)
   EXPECT_TRUE(build(s, o).empty());
   // Too few members: nothing.
   MagneticSubmapOptions few = o;

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "vims_common/config_reader.h"
+#include "vims_common/option_table.h"
 
 namespace vims {
 
@@ -16,6 +17,18 @@ const std::vector<std::string>& SystemConfig::sections() {
 const std::vector<std::string>& SystemConfig::modes() {
   static const std::vector<std::string> kModes = {"full", "vi_slam", "no_sonar", "no_alter", "no_orb", "no_geom"};
   return kModes;
+}
+
+std::vector<OptionRow> SystemConfig::optionRows() {
+  using C = SystemConfig;
+  const auto table =
+      OptionTable<C>()
+          .section<SonarFilterOptions>("sonar", &C::sonar, SonarFilterOptions::optionTable())
+          .section<MagnetometerOptions>("magnetometer", &C::magnetometer, MagnetometerOptions::optionTable())
+          .section<TrackerOptions>("tracker", &C::tracker, TrackerOptions::optionTable())
+          .section<EstimatorOptions>("estimator", &C::estimator, EstimatorOptions::optionTable())
+          .section<PoseGraphManagerOptions>("pose_graph", &C::pose_graph, PoseGraphManagerOptions::optionTable());
+  return table.rows();
 }
 
 SystemConfig SystemConfig::load(const std::vector<std::string>& paths, const SequenceConfig& sequence) {

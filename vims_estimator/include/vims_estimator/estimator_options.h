@@ -14,6 +14,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct EstimatorOptions {
   // ---- window and keyframes ----
   /// Keyframes in the sliding window (plus the newest frame). VINS-Mono's 10: at 10 Hz and the
@@ -148,6 +151,9 @@ struct EstimatorOptions {
   /// Sonar-free initialisation (use_sonar: false): SfM + IMU alignment (section
   /// `visual_inertial_init`, visual_inertial_initializer.h).
   VisualInertialInitOptions visual_inertial_init;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<EstimatorOptions>& optionTable();
 
   /// Unknown keys and out-of-range values throw ConfigError naming the key.
   static EstimatorOptions fromReader(const ConfigReader& reader);

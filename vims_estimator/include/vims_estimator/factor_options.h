@@ -22,11 +22,17 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct FactorOptions {
   ImuPreintegrationOptions imu_preintegration;
   ReprojectionOptions reprojection;
   SonarDepthOptions sonar_depth;
   MarginalizationOptions marginalization;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<FactorOptions>& optionTable();
 
   /// Reads the four optional sub-sections; unknown keys and out-of-range values throw
   /// ConfigError naming the full key path.

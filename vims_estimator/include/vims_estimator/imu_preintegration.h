@@ -26,6 +26,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 using Matrix15d = Eigen::Matrix<double, 15, 15>;
 
 /// Error-state indices (see file comment).
@@ -57,6 +60,9 @@ struct ImuPreintegrationOptions {
   /// 5e-5 rad over T = 1 s at this bound, well below the gyro white-noise share sigma_g sqrt(T)
   /// of any MEMS/FOG IMU (>= 1e-4 rad), while it avoids repropagating at every solver iteration.
   double max_gyro_bias_change = 0.01;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<ImuPreintegrationOptions>& optionTable();
 
   /// Reads {max_accel_bias_change, max_gyro_bias_change}; unknown keys and values <= 0 throw
   /// ConfigError naming the key. Absent keys keep the defaults.

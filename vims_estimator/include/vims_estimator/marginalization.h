@@ -38,6 +38,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct MarginalizationOptions {
   /// Eigenvalues below this fraction of the largest are treated as zero. Double-precision
   /// eigen-decomposition and the Schur complement's cancellation leave errors of about
@@ -49,6 +52,9 @@ struct MarginalizationOptions {
   /// epsilon) is a standard deviation of 1e4 in the tangent units - metres, radians, m/s - i.e. no
   /// information at all.
   double eigenvalue_absolute_threshold = 1e-8;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<MarginalizationOptions>& optionTable();
 
   /// Reads {eigenvalue_relative_threshold, eigenvalue_absolute_threshold}; unknown keys and values
   /// <= 0 throw ConfigError naming the key.

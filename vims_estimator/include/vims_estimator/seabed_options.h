@@ -10,6 +10,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 /// How the sonar depth factor relates a feature to the seabed point under the sonar.
 enum class SeabedModel {
   kHorizontal,  ///< the paper's: the feature is at the height of the beam's hit (flat, level seabed)
@@ -34,6 +37,9 @@ struct SeabedModelOptions {
   /// Bound of each gradient component in the solve: 0.36 = 20 deg, steeper is a wall, not a seabed.
   double max_slope = 0.36;
 
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<SeabedModelOptions>& optionTable();
+
   /// Reads {model, slope_random_walk, slope_step_std, slope_prior_std, max_slope}; unknown keys
   /// or bad values throw ConfigError naming the key.
   static SeabedModelOptions fromReader(const ConfigReader& reader);
@@ -55,6 +61,9 @@ struct PressureOptions {
   double median_window_s = 1.0;
   /// Huber scale of the pressure factor in whitened units.
   double loss_scale = 1.0;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<PressureOptions>& optionTable();
 
   /// Reads {enabled, min_depth_std_m, spike_threshold_m, median_window_s, loss_scale}.
   static PressureOptions fromReader(const ConfigReader& reader);

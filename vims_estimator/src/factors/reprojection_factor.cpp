@@ -4,24 +4,23 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/option_table.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
 
 namespace vims {
 
-ReprojectionOptions ReprojectionOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"pixel_sigma"});
-  ReprojectionOptions o;
-  o.pixel_sigma = reader.get<double>("pixel_sigma", o.pixel_sigma);
-  requirePositive(reader, "pixel_sigma", o.pixel_sigma);
-  return o;
+const OptionTable<ReprojectionOptions>& ReprojectionOptions::optionTable() {
+  static const auto table =
+      OptionTable<ReprojectionOptions>().number("pixel_sigma", &ReprojectionOptions::pixel_sigma, Bounds::positive());
+  return table;
 }
 
-std::string ReprojectionOptions::toYaml() const {
-  std::ostringstream os;
-  os << "pixel_sigma: " << pixel_sigma << "\n";
-  return os.str();
+ReprojectionOptions ReprojectionOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<ReprojectionOptions>(reader);
 }
+
+std::string ReprojectionOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 Eigen::Vector2d reprojectionResidual(const FeatureObservation& anchor, const FeatureObservation& target,
                                      const Eigen::Isometry3d& T_l_bi, const Eigen::Isometry3d& T_l_bk,

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "vims_common/option_table.h"
 #include "vims_estimator/so3.h"
 #include "vims_estimator/state_blocks.h"
 
@@ -28,46 +29,28 @@ double SonarDepthOptions::carriedSigma(double sonar_sigma, double distance_m) co
   return std::hypot(sonar_sigma, carry_slope_std * distance_m);
 }
 
-SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"flatness_std", "misfit_per_m", "learn_misfit", "misfit_history_hits", "misfit_min_pairs",
-                            "gate_chi2", "gate_max_height_difference", "carry_seabed_through_outages",
-                            "carry_slope_std", "carry_max_distance_m"});
-  SonarDepthOptions o;
-  o.flatness_std = reader.get<double>("flatness_std", o.flatness_std);
-  o.misfit_per_m = reader.get<double>("misfit_per_m", o.misfit_per_m);
-  o.learn_misfit = reader.get<bool>("learn_misfit", o.learn_misfit);
-  o.misfit_history_hits = reader.get<int>("misfit_history_hits", o.misfit_history_hits);
-  o.misfit_min_pairs = reader.get<int>("misfit_min_pairs", o.misfit_min_pairs);
-  o.gate_chi2 = reader.get<double>("gate_chi2", o.gate_chi2);
-  o.gate_max_height_difference = reader.get<double>("gate_max_height_difference", o.gate_max_height_difference);
-  o.carry_seabed_through_outages = reader.get<bool>("carry_seabed_through_outages", o.carry_seabed_through_outages);
-  o.carry_slope_std = reader.get<double>("carry_slope_std", o.carry_slope_std);
-  o.carry_max_distance_m = reader.get<double>("carry_max_distance_m", o.carry_max_distance_m);
-  requireNonNegative(reader, "flatness_std", o.flatness_std);
-  requireNonNegative(reader, "misfit_per_m", o.misfit_per_m);
-  requirePositive(reader, "misfit_history_hits", o.misfit_history_hits);
-  requirePositive(reader, "misfit_min_pairs", o.misfit_min_pairs);
-  requirePositive(reader, "gate_chi2", o.gate_chi2);
-  requirePositive(reader, "gate_max_height_difference", o.gate_max_height_difference);
-  requireNonNegative(reader, "carry_slope_std", o.carry_slope_std);
-  requirePositive(reader, "carry_max_distance_m", o.carry_max_distance_m);
-  return o;
+const OptionTable<SonarDepthOptions>& SonarDepthOptions::optionTable() {
+  using O = SonarDepthOptions;
+  static const auto table =
+      OptionTable<O>()
+          .number("flatness_std", &O::flatness_std, Bounds::nonNegative())
+          .number("misfit_per_m", &O::misfit_per_m, Bounds::nonNegative())
+          .flag("learn_misfit", &O::learn_misfit)
+          .integer("misfit_history_hits", &O::misfit_history_hits, Bounds::positive())
+          .integer("misfit_min_pairs", &O::misfit_min_pairs, Bounds::positive())
+          .number("gate_chi2", &O::gate_chi2, Bounds::positive())
+          .number("gate_max_height_difference", &O::gate_max_height_difference, Bounds::positive())
+          .flag("carry_seabed_through_outages", &O::carry_seabed_through_outages)
+          .number("carry_slope_std", &O::carry_slope_std, Bounds::nonNegative())
+          .number("carry_max_distance_m", &O::carry_max_distance_m, Bounds::positive());
+  return table;
 }
 
-std::string SonarDepthOptions::toYaml() const {
-  std::ostringstream os;
-  os << "flatness_std: " << flatness_std << "\n"
-     << "misfit_per_m: " << misfit_per_m << "\n"
-     << "learn_misfit: " << (learn_misfit ? "true" : "false") << "\n"
-     << "misfit_history_hits: " << misfit_history_hits << "\n"
-     << "misfit_min_pairs: " << misfit_min_pairs << "\n"
-     << "gate_chi2: " << gate_chi2 << "\n"
-     << "gate_max_height_difference: " << gate_max_height_difference << "\n"
-     << "carry_seabed_through_outages: " << (carry_seabed_through_outages ? "true" : "false") << "\n"
-     << "carry_slope_std: " << carry_slope_std << "\n"
-     << "carry_max_distance_m: " << carry_max_distance_m << "\n";
-  return os.str();
+SonarDepthOptions SonarDepthOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<SonarDepthOptions>(reader);
 }
+
+std::string SonarDepthOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 namespace {
 /// The feature f_b = p_bc + lambda R_bc b in the body frame of its anchor, and the Jacobian

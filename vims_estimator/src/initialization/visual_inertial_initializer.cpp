@@ -27,50 +27,34 @@
 #include <limits>
 #include <sstream>
 
+#include "vims_common/option_table.h"
 #include "vims_estimator/so3.h"
 
 namespace vims {
 
-VisualInertialInitOptions VisualInertialInitOptions::fromReader(const ConfigReader& r) {
-  r.rejectUnknownKeys({"enabled", "window_frames", "min_relative_pose_features", "min_relative_pose_parallax_px",
-                       "ransac_threshold_px", "min_sfm_points", "max_sfm_rms_px", "gravity_norm_tolerance",
-                       "max_relative_scale_std", "accel_bias_sigma", "sfm_position_sigma_m"});
-  VisualInertialInitOptions o;
-  o.enabled = r.get<bool>("enabled", o.enabled);
-  o.window_frames = r.get<int>("window_frames", o.window_frames);
-  requireInRange(r, "window_frames", o.window_frames, 4, 50);
-  o.min_relative_pose_features = r.get<int>("min_relative_pose_features", o.min_relative_pose_features);
-  requireInRange(r, "min_relative_pose_features", o.min_relative_pose_features, 8, 10000);
-  o.min_relative_pose_parallax_px = r.get<double>("min_relative_pose_parallax_px", o.min_relative_pose_parallax_px);
-  requirePositive(r, "min_relative_pose_parallax_px", o.min_relative_pose_parallax_px);
-  o.ransac_threshold_px = r.get<double>("ransac_threshold_px", o.ransac_threshold_px);
-  requirePositive(r, "ransac_threshold_px", o.ransac_threshold_px);
-  o.min_sfm_points = r.get<int>("min_sfm_points", o.min_sfm_points);
-  requireInRange(r, "min_sfm_points", o.min_sfm_points, 6, 100000);
-  o.max_sfm_rms_px = r.get<double>("max_sfm_rms_px", o.max_sfm_rms_px);
-  requirePositive(r, "max_sfm_rms_px", o.max_sfm_rms_px);
-  o.gravity_norm_tolerance = r.get<double>("gravity_norm_tolerance", o.gravity_norm_tolerance);
-  requirePositive(r, "gravity_norm_tolerance", o.gravity_norm_tolerance);
-  o.max_relative_scale_std = r.get<double>("max_relative_scale_std", o.max_relative_scale_std);
-  requirePositive(r, "max_relative_scale_std", o.max_relative_scale_std);
-  o.accel_bias_sigma = r.get<double>("accel_bias_sigma", o.accel_bias_sigma);
-  requireNonNegative(r, "accel_bias_sigma", o.accel_bias_sigma);
-  o.sfm_position_sigma_m = r.get<double>("sfm_position_sigma_m", o.sfm_position_sigma_m);
-  requirePositive(r, "sfm_position_sigma_m", o.sfm_position_sigma_m);
-  return o;
+const OptionTable<VisualInertialInitOptions>& VisualInertialInitOptions::optionTable() {
+  using O = VisualInertialInitOptions;
+  static const auto table =
+      OptionTable<O>()
+          .flag("enabled", &O::enabled)
+          .integer("window_frames", &O::window_frames, Bounds::closed(4, 50))
+          .integer("min_relative_pose_features", &O::min_relative_pose_features, Bounds::closed(8, 10000))
+          .number("min_relative_pose_parallax_px", &O::min_relative_pose_parallax_px, Bounds::positive())
+          .number("ransac_threshold_px", &O::ransac_threshold_px, Bounds::positive())
+          .integer("min_sfm_points", &O::min_sfm_points, Bounds::closed(6, 100000))
+          .number("max_sfm_rms_px", &O::max_sfm_rms_px, Bounds::positive())
+          .number("gravity_norm_tolerance", &O::gravity_norm_tolerance, Bounds::positive())
+          .number("max_relative_scale_std", &O::max_relative_scale_std, Bounds::positive())
+          .number("accel_bias_sigma", &O::accel_bias_sigma, Bounds::nonNegative())
+          .number("sfm_position_sigma_m", &O::sfm_position_sigma_m, Bounds::positive());
+  return table;
 }
 
-std::string VisualInertialInitOptions::toYaml() const {
-  std::ostringstream os;
-  os << "enabled: " << (enabled ? "true" : "false") << "\nwindow_frames: " << window_frames
-     << "\nmin_relative_pose_features: " << min_relative_pose_features
-     << "\nmin_relative_pose_parallax_px: " << min_relative_pose_parallax_px
-     << "\nransac_threshold_px: " << ransac_threshold_px << "\nmin_sfm_points: " << min_sfm_points
-     << "\nmax_sfm_rms_px: " << max_sfm_rms_px << "\ngravity_norm_tolerance: " << gravity_norm_tolerance
-     << "\nmax_relative_scale_std: " << max_relative_scale_std << "\naccel_bias_sigma: " << accel_bias_sigma
-     << "\nsfm_position_sigma_m: " << sfm_position_sigma_m << "\n";
-  return os.str();
+VisualInertialInitOptions VisualInertialInitOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<VisualInertialInitOptions>(reader);
 }
+
+std::string VisualInertialInitOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 const char* visualInertialInitStatusName(VisualInertialInitStatus status) {
   switch (status) {

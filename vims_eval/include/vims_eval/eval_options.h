@@ -11,6 +11,10 @@
 #include "vims_eval/revisit.h"
 
 namespace vims {
+
+template <typename Options>
+class OptionTable;
+
 namespace eval {
 
 struct EvalOptions {
@@ -24,6 +28,8 @@ struct EvalOptions {
   ///   revisit_margin_s.
   /// Unknown keys and out-of-range values throw ConfigError naming the key.
   static EvalOptions fromReader(const ConfigReader& reader);
+  /// The table of the keys above (bounds): drives fromReader, validate and toYaml.
+  static const OptionTable<EvalOptions>& optionTable();
   std::string toYaml() const;
   /// Range checks shared by fromReader and the command line; throws std::invalid_argument.
   void validate() const;

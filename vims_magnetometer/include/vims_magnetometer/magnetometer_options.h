@@ -13,6 +13,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 /// The small AHRS that rotates the alternating field into ENU (see attitude_filter.h).
 struct AttitudeFilterOptions {
   /// Time constant [s] with which roll and pitch are pulled towards the accelerometer's gravity
@@ -37,9 +40,11 @@ struct AttitudeFilterOptions {
   /// the contract's 200 Hz.
   double max_imu_gap_s = 0.1;
 
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<AttitudeFilterOptions>& optionTable();
   static AttitudeFilterOptions fromReader(const ConfigReader& reader);
   void validate(const ConfigReader& reader) const;
-  std::string toYaml(const std::string& indent = "") const;
+  std::string toYaml() const;
 };
 
 struct MagnetometerOptions {
@@ -74,6 +79,9 @@ struct MagnetometerOptions {
   /// Reads a mapping (config/magnetometer.yaml or a section of it); missing keys keep their
   /// defaults; the AHRS options are in the sub-mapping `attitude`. Unknown keys and out-of-range
   /// values throw ConfigError naming the key.
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<MagnetometerOptions>& optionTable();
   static MagnetometerOptions fromReader(const ConfigReader& reader);
   void validate(const ConfigReader& reader) const;
   /// Checks the options against the sensor (window long enough, neighbouring bins inside

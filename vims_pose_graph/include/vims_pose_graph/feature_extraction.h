@@ -21,6 +21,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 enum class DescriptorType { kOrb, kBrief };
 
 /// "orb" / "brief".
@@ -36,6 +39,9 @@ struct FeatureExtractionOptions {
   /// FAST intensity threshold (ORB and BRIEF keypoints). 10, not the usual 20: underwater images
   /// are low-contrast, and 20 leaves ~80 corners per simulated seabed frame (10: ~330).
   int fast_threshold = 10;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<FeatureExtractionOptions>& optionTable();
 
   /// Keys: descriptor (orb|brief), max_features, orb_scale_factor, orb_levels, fast_threshold.
   /// Unknown keys and out-of-range values throw ConfigError naming the key.

@@ -15,6 +15,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 /// The paper's ablation modes, all on the same code path.
 enum class LoopClosingMode {
   kFull,     ///< magnetic + BoW + ORB verification, geomagnetic yaw factors
@@ -74,6 +77,9 @@ struct MagneticSubmapOptions {
   /// submap: a downward camera at 2-3 m altitude sees ~3 x 2 m of seabed, so keyframes within
   /// about half of that of the submap still view the same place.
   double cluster_margin_m = 1.0;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<MagneticSubmapOptions>& optionTable();
 
   static MagneticSubmapOptions fromReader(const ConfigReader& reader);
   void validate() const;
@@ -297,6 +303,9 @@ struct LoopDetectorOptions {
   /// one row per query), so precision-recall of the prefilters can be computed from loops.csv.
   bool record_prefilter_rejections = true;
 
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<LoopDetectorOptions>& optionTable();
+
   static LoopDetectorOptions fromReader(const ConfigReader& reader);
   void validate() const;
   std::string toYaml() const;
@@ -351,6 +360,9 @@ struct PoseGraphManagerOptions {
   const std::string& vocabularyPath() const;
   /// Feature options with the mode's descriptor.
   FeatureExtractionOptions featureOptions() const;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<PoseGraphManagerOptions>& optionTable();
 
   /// Keys: mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
   /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,

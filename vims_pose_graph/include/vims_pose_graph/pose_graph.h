@@ -28,6 +28,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 using PoseGraphNodeId = uint32_t;
 using LoopEdgeId = uint32_t;
 
@@ -108,6 +111,9 @@ struct PoseGraphOptions {
   /// PoseGraphManagerOptions::optimise_every_n_keyframes keyframes old, or with the next loop
   /// that is not local, or at the end of data. 0 (or window_keyframes 0) = off.
   double loop_local_solve_max_sigmas = 3.0;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<PoseGraphOptions>& optionTable();
 
   /// Keys as the field names, with `_deg` instead of `_rad` for angles. Unknown keys and
   /// out-of-range values throw ConfigError naming the key.

@@ -19,6 +19,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 using WordId = uint32_t;
 /// Index of a node of the vocabulary tree (0 = root), used as the key of the direct index.
 using VocabularyNodeId = uint32_t;
@@ -64,6 +67,9 @@ struct VocabularyTrainingOptions {
   uint64_t seed = 1;                    ///< seeds k-means++; the same seed and input give the same tree
   int max_iterations = 20;              ///< k-medians iterations per node (stops earlier when assignments settle)
   std::string descriptor_type = "orb";  ///< label stored in the file ("orb" or "brief")
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<VocabularyTrainingOptions>& optionTable();
 
   /// Keys: branching, levels, seed, max_iterations, descriptor_type. Unknown keys and
   /// out-of-range values throw ConfigError naming the key.

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/option_table.h"
 #include "vims_pose_graph/angles.h"
 
 namespace vims {
@@ -76,141 +77,46 @@ RobustLoss robustLossFromString(const std::string& name) {
 // Options
 // ---------------------------------------------------------------------------------------------
 
+const OptionTable<PoseGraphOptions>& PoseGraphOptions::optionTable() {
+  using O = PoseGraphOptions;
+  const std::vector<RobustLoss> losses = {RobustLoss::kNone, RobustLoss::kHuber, RobustLoss::kCauchy};
+  const auto loss_name = [](RobustLoss loss) { return toString(loss); };
+  static const auto table =
+      OptionTable<O>()
+          .number("odometry_position_sigma_m", &O::odometry_position_sigma_m, Bounds::positive())
+          .number("odometry_position_sigma_per_m", &O::odometry_position_sigma_per_m, Bounds::nonNegative())
+          .scaledNumber("odometry_yaw_sigma_deg", &O::odometry_yaw_sigma_rad, kDeg, Bounds::positive())
+          .scaledNumber("odometry_yaw_sigma_per_m_deg", &O::odometry_yaw_sigma_per_m_rad, kDeg, Bounds::nonNegative())
+          .number("loop_position_sigma_m", &O::loop_position_sigma_m, Bounds::positive())
+          .scaledNumber("loop_yaw_sigma_deg", &O::loop_yaw_sigma_rad, kDeg, Bounds::positive())
+          .flag("loop_sigma_from_inliers", &O::loop_sigma_from_inliers)
+          .number("loop_position_sigma_floor_m", &O::loop_position_sigma_floor_m, Bounds::positive())
+          .scaledNumber("loop_yaw_sigma_floor_deg", &O::loop_yaw_sigma_floor_rad, kDeg, Bounds::positive())
+          .choice<RobustLoss>("loop_loss", &O::loop_loss, losses, loss_name)
+          .number("loop_loss_scale", &O::loop_loss_scale, Bounds::positive())
+          .scaledNumber("mag_yaw_sigma_deg", &O::mag_yaw_sigma_rad, kDeg, Bounds::closed(1e-6, 180.0))
+          .choice<RobustLoss>("mag_loss", &O::mag_loss, losses, loss_name)
+          .number("mag_loss_scale", &O::mag_loss_scale, Bounds::positive())
+          .number("mag_min_horizontal_field_tesla", &O::mag_min_horizontal_field_tesla, Bounds::closed(0.0, 1e-3))
+          .integer("max_iterations", &O::max_iterations, Bounds::closed(1, 10000))
+          .number("max_solver_time_s", &O::max_solver_time_s, Bounds::nonNegative())
+          .integer("num_threads", &O::num_threads, Bounds::closed(1, 64))
+          .number("function_tolerance", &O::function_tolerance, Bounds::closed(1e-12, 0.1))
+          .number("online_function_tolerance", &O::online_function_tolerance, Bounds::closed(1e-12, 0.1))
+          .flag("loop_solve_from_earliest_node", &O::loop_solve_from_earliest_node)
+          .integer("window_keyframes", &O::window_keyframes, Bounds::closed(0, 100000000))
+          .number("loop_local_solve_max_sigmas", &O::loop_local_solve_max_sigmas, Bounds::nonNegative())
+          .number("depth_sigma_m", &O::depth_sigma_m, Bounds::positive());
+  return table;
+}
+
 PoseGraphOptions PoseGraphOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"odometry_position_sigma_m",
-                            "odometry_position_sigma_per_m",
-                            "odometry_yaw_sigma_deg",
-                            "odometry_yaw_sigma_per_m_deg",
-                            "loop_position_sigma_m",
-                            "loop_yaw_sigma_deg",
-                            "loop_sigma_from_inliers",
-                            "loop_position_sigma_floor_m",
-                            "loop_yaw_sigma_floor_deg",
-                            "loop_loss",
-                            "loop_loss_scale",
-                            "mag_yaw_sigma_deg",
-                            "mag_loss",
-                            "mag_loss_scale",
-                            "mag_min_horizontal_field_tesla",
-                            "max_iterations",
-                            "max_solver_time_s",
-                            "num_threads",
-                            "function_tolerance",
-                            "online_function_tolerance",
-                            "loop_solve_from_earliest_node",
-                            "window_keyframes",
-                            "loop_local_solve_max_sigmas",
-                            "depth_sigma_m"});
-  PoseGraphOptions o;
-  auto positive = [&](const char* key, double fallback) {
-    const double v = reader.get<double>(key, fallback);
-    requirePositive(reader, key, v);
-    return v;
-  };
-  auto nonNegative = [&](const char* key, double fallback) {
-    const double v = reader.get<double>(key, fallback);
-    requireNonNegative(reader, key, v);
-    return v;
-  };
-  auto loss = [&](const char* key, RobustLoss fallback) {
-    const std::string name = reader.get<std::string>(key, toString(fallback));
-    try {
-      return robustLossFromString(name);
-    } catch (const std::invalid_argument& e) {
-      throw reader.error(key, e.what());
-    }
-  };
-  o.odometry_position_sigma_m = positive("odometry_position_sigma_m", o.odometry_position_sigma_m);
-  o.odometry_position_sigma_per_m = nonNegative("odometry_position_sigma_per_m", o.odometry_position_sigma_per_m);
-  o.odometry_yaw_sigma_rad = kDeg * positive("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_rad / kDeg);
-  o.odometry_yaw_sigma_per_m_rad =
-      kDeg * nonNegative("odometry_yaw_sigma_per_m_deg", o.odometry_yaw_sigma_per_m_rad / kDeg);
-  o.loop_position_sigma_m = positive("loop_position_sigma_m", o.loop_position_sigma_m);
-  o.loop_yaw_sigma_rad = kDeg * positive("loop_yaw_sigma_deg", o.loop_yaw_sigma_rad / kDeg);
-  o.loop_sigma_from_inliers = reader.get<bool>("loop_sigma_from_inliers", o.loop_sigma_from_inliers);
-  o.loop_position_sigma_floor_m = positive("loop_position_sigma_floor_m", o.loop_position_sigma_floor_m);
-  o.loop_yaw_sigma_floor_rad = kDeg * positive("loop_yaw_sigma_floor_deg", o.loop_yaw_sigma_floor_rad / kDeg);
-  o.loop_loss = loss("loop_loss", o.loop_loss);
-  o.loop_loss_scale = positive("loop_loss_scale", o.loop_loss_scale);
-  o.mag_yaw_sigma_rad = kDeg * positive("mag_yaw_sigma_deg", o.mag_yaw_sigma_rad / kDeg);
-  requireInRange(reader, "mag_yaw_sigma_deg", o.mag_yaw_sigma_rad / kDeg, 1e-6, 180.0);
-  o.mag_loss = loss("mag_loss", o.mag_loss);
-  o.mag_loss_scale = positive("mag_loss_scale", o.mag_loss_scale);
-  o.mag_min_horizontal_field_tesla = nonNegative("mag_min_horizontal_field_tesla", o.mag_min_horizontal_field_tesla);
-  requireInRange(reader, "mag_min_horizontal_field_tesla", o.mag_min_horizontal_field_tesla, 0.0, 1e-3);
-  o.max_iterations = reader.get<int>("max_iterations", o.max_iterations);
-  requireInRange(reader, "max_iterations", o.max_iterations, 1, 10000);
-  o.max_solver_time_s = nonNegative("max_solver_time_s", o.max_solver_time_s);
-  o.num_threads = reader.get<int>("num_threads", o.num_threads);
-  requireInRange(reader, "num_threads", o.num_threads, 1, 64);
-  o.function_tolerance = positive("function_tolerance", o.function_tolerance);
-  requireInRange(reader, "function_tolerance", o.function_tolerance, 1e-12, 0.1);
-  o.online_function_tolerance = positive("online_function_tolerance", o.online_function_tolerance);
-  requireInRange(reader, "online_function_tolerance", o.online_function_tolerance, 1e-12, 0.1);
-  o.loop_solve_from_earliest_node = reader.get<bool>("loop_solve_from_earliest_node", o.loop_solve_from_earliest_node);
-  o.window_keyframes = reader.get<int>("window_keyframes", o.window_keyframes);
-  requireInRange(reader, "window_keyframes", o.window_keyframes, 0, 100000000);
-  o.loop_local_solve_max_sigmas = nonNegative("loop_local_solve_max_sigmas", o.loop_local_solve_max_sigmas);
-  o.depth_sigma_m = positive("depth_sigma_m", o.depth_sigma_m);
-  return o;
+  return readOptions<PoseGraphOptions>(reader);
 }
 
-void PoseGraphOptions::validate() const {
-  auto check = [](bool ok, const char* field) {
-    if (!ok) throw std::invalid_argument(std::string("PoseGraphOptions: invalid ") + field);
-  };
-  check(odometry_position_sigma_m > 0.0, "odometry_position_sigma_m");
-  check(odometry_position_sigma_per_m >= 0.0, "odometry_position_sigma_per_m");
-  check(odometry_yaw_sigma_rad > 0.0, "odometry_yaw_sigma_rad");
-  check(odometry_yaw_sigma_per_m_rad >= 0.0, "odometry_yaw_sigma_per_m_rad");
-  check(loop_position_sigma_m > 0.0, "loop_position_sigma_m");
-  check(loop_yaw_sigma_rad > 0.0, "loop_yaw_sigma_rad");
-  check(loop_position_sigma_floor_m > 0.0, "loop_position_sigma_floor_m");
-  check(loop_yaw_sigma_floor_rad > 0.0, "loop_yaw_sigma_floor_rad");
-  check(loop_loss_scale > 0.0, "loop_loss_scale");
-  check(mag_yaw_sigma_rad > 0.0 && mag_yaw_sigma_rad <= M_PI, "mag_yaw_sigma_rad");
-  check(mag_loss_scale > 0.0, "mag_loss_scale");
-  check(mag_min_horizontal_field_tesla >= 0.0, "mag_min_horizontal_field_tesla");
-  check(max_iterations >= 1, "max_iterations");
-  check(max_solver_time_s >= 0.0, "max_solver_time_s");
-  check(num_threads >= 1, "num_threads");
-  check(function_tolerance > 0.0 && function_tolerance < 1.0, "function_tolerance");
-  check(online_function_tolerance > 0.0 && online_function_tolerance < 1.0, "online_function_tolerance");
-  check(window_keyframes >= 0, "window_keyframes");
-  check(loop_local_solve_max_sigmas >= 0.0 && std::isfinite(loop_local_solve_max_sigmas),
-        "loop_local_solve_max_sigmas");
-  check(depth_sigma_m > 0.0, "depth_sigma_m");
-}
+void PoseGraphOptions::validate() const { throwIfInvalid(optionTable(), *this, "PoseGraphOptions"); }
 
-std::string PoseGraphOptions::toYaml() const {
-  std::ostringstream os;
-  os.precision(10);
-  os << "odometry_position_sigma_m: " << odometry_position_sigma_m << "\n"
-     << "odometry_position_sigma_per_m: " << odometry_position_sigma_per_m << "\n"
-     << "odometry_yaw_sigma_deg: " << odometry_yaw_sigma_rad / kDeg << "\n"
-     << "odometry_yaw_sigma_per_m_deg: " << odometry_yaw_sigma_per_m_rad / kDeg << "\n"
-     << "loop_position_sigma_m: " << loop_position_sigma_m << "\n"
-     << "loop_yaw_sigma_deg: " << loop_yaw_sigma_rad / kDeg << "\n"
-     << "loop_sigma_from_inliers: " << (loop_sigma_from_inliers ? "true" : "false") << "\n"
-     << "loop_position_sigma_floor_m: " << loop_position_sigma_floor_m << "\n"
-     << "loop_yaw_sigma_floor_deg: " << loop_yaw_sigma_floor_rad / kDeg << "\n"
-     << "loop_loss: " << toString(loop_loss) << "\n"
-     << "loop_loss_scale: " << loop_loss_scale << "\n"
-     << "mag_yaw_sigma_deg: " << mag_yaw_sigma_rad / kDeg << "\n"
-     << "mag_loss: " << toString(mag_loss) << "\n"
-     << "mag_loss_scale: " << mag_loss_scale << "\n"
-     << "mag_min_horizontal_field_tesla: " << mag_min_horizontal_field_tesla << "\n"
-     << "max_iterations: " << max_iterations << "\n"
-     << "max_solver_time_s: " << max_solver_time_s << "\n"
-     << "num_threads: " << num_threads << "\n"
-     << "function_tolerance: " << function_tolerance << "\n"
-     << "online_function_tolerance: " << online_function_tolerance << "\n"
-     << "loop_solve_from_earliest_node: " << (loop_solve_from_earliest_node ? "true" : "false") << "\n"
-     << "window_keyframes: " << window_keyframes << "\n"
-     << "loop_local_solve_max_sigmas: " << loop_local_solve_max_sigmas << "\n"
-     << "depth_sigma_m: " << depth_sigma_m << "\n";
-  return os.str();
-}
+std::string PoseGraphOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // Graph

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "vims_common/option_table.h"
+
 namespace vims {
 
 std::string toString(DescriptorType type) { return type == DescriptorType::kOrb ? "orb" : "brief"; }
@@ -17,33 +19,24 @@ DescriptorType descriptorTypeFromString(const std::string& name) {
   throw std::invalid_argument("unknown descriptor type '" + name + "' (expected orb or brief)");
 }
 
-FeatureExtractionOptions FeatureExtractionOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"descriptor", "max_features", "orb_scale_factor", "orb_levels", "fast_threshold"});
-  FeatureExtractionOptions o;
-  const std::string name = reader.get<std::string>("descriptor", toString(o.descriptor));
-  try {
-    o.descriptor = descriptorTypeFromString(name);
-  } catch (const std::invalid_argument& e) {
-    throw reader.error("descriptor", e.what());
-  }
-  o.max_features = reader.get<int>("max_features", o.max_features);
-  requireInRange(reader, "max_features", o.max_features, 1, 100000);
-  o.orb_scale_factor = reader.get<double>("orb_scale_factor", o.orb_scale_factor);
-  requireInRange(reader, "orb_scale_factor", o.orb_scale_factor, 1.01, 2.0);
-  o.orb_levels = reader.get<int>("orb_levels", o.orb_levels);
-  requireInRange(reader, "orb_levels", o.orb_levels, 1, 16);
-  o.fast_threshold = reader.get<int>("fast_threshold", o.fast_threshold);
-  requireInRange(reader, "fast_threshold", o.fast_threshold, 1, 254);
-  return o;
+const OptionTable<FeatureExtractionOptions>& FeatureExtractionOptions::optionTable() {
+  using O = FeatureExtractionOptions;
+  static const auto table =
+      OptionTable<O>()
+          .choice<DescriptorType>("descriptor", &O::descriptor, {DescriptorType::kOrb, DescriptorType::kBrief},
+                                  [](DescriptorType type) { return toString(type); })
+          .integer("max_features", &O::max_features, Bounds::closed(1, 100000))
+          .number("orb_scale_factor", &O::orb_scale_factor, Bounds::closed(1.01, 2.0))
+          .integer("orb_levels", &O::orb_levels, Bounds::closed(1, 16))
+          .integer("fast_threshold", &O::fast_threshold, Bounds::closed(1, 254));
+  return table;
 }
 
-std::string FeatureExtractionOptions::toYaml() const {
-  std::ostringstream os;
-  os << "descriptor: " << toString(descriptor) << "\nmax_features: " << max_features
-     << "\norb_scale_factor: " << orb_scale_factor << "\norb_levels: " << orb_levels
-     << "\nfast_threshold: " << fast_threshold << "\n";
-  return os.str();
+FeatureExtractionOptions FeatureExtractionOptions::fromReader(const ConfigReader& reader) {
+  return readOptions<FeatureExtractionOptions>(reader);
 }
+
+std::string FeatureExtractionOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // BRIEF

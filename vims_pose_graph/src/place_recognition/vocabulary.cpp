@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "vims_common/fnv1a.h"
+#include "vims_common/option_table.h"
 
 namespace vims {
 
@@ -60,45 +61,36 @@ double bowScoreL1(const BowVector& v1, const BowVector& v2) {
 // Options
 // ---------------------------------------------------------------------------------------------
 
+const OptionTable<VocabularyTrainingOptions>& VocabularyTrainingOptions::optionTable() {
+  using O = VocabularyTrainingOptions;
+  static const auto table = OptionTable<O>()
+                                .integer("branching", &O::branching, Bounds::closed(2, 64))
+                                .integer("levels", &O::levels, Bounds::closed(1, 8))
+                                .integer<uint64_t>("seed", &O::seed, Bounds::nonNegative())
+                                .integer("max_iterations", &O::max_iterations, Bounds::closed(1, 1000))
+                                .text("descriptor_type", &O::descriptor_type, false)
+                                .rule([](const O& o) {
+                                  return violationIf(std::pow(static_cast<double>(o.branching), o.levels) > 2.0e7,
+                                                     "levels", "branching^levels exceeds 2e7 words");
+                                });
+  return table;
+}
+
 void VocabularyTrainingOptions::validate() const {
-  if (branching < 2 || branching > 64)
-    throw std::invalid_argument("vocabulary branching must be in [2, 64], got " + std::to_string(branching));
-  if (levels < 1 || levels > 8)
-    throw std::invalid_argument("vocabulary levels must be in [1, 8], got " + std::to_string(levels));
-  if (std::pow(static_cast<double>(branching), levels) > 2.0e7)
-    throw std::invalid_argument("vocabulary branching^levels must not exceed 2e7 words, got " +
-                                std::to_string(branching) + "^" + std::to_string(levels));
-  if (max_iterations < 1 || max_iterations > 1000)
-    throw std::invalid_argument("vocabulary max_iterations must be in [1, 1000], got " +
-                                std::to_string(max_iterations));
-  if (descriptor_type.empty() || descriptor_type.size() > 32)
-    throw std::invalid_argument("vocabulary descriptor_type must have 1..32 characters");
+  if (const auto v = optionTable().firstViolation(*this)) {
+    throw std::invalid_argument("vocabulary " + v->key + " " + v->message);
+  }
+  if (descriptor_type.size() > 32) throw std::invalid_argument("vocabulary descriptor_type must have 1..32 characters");
 }
 
 VocabularyTrainingOptions VocabularyTrainingOptions::fromReader(const ConfigReader& reader) {
-  reader.rejectUnknownKeys({"branching", "levels", "seed", "max_iterations", "descriptor_type"});
-  VocabularyTrainingOptions o;
-  o.branching = reader.get<int>("branching", o.branching);
-  requireInRange(reader, "branching", o.branching, 2, 64);
-  o.levels = reader.get<int>("levels", o.levels);
-  requireInRange(reader, "levels", o.levels, 1, 8);
-  if (std::pow(static_cast<double>(o.branching), o.levels) > 2.0e7)
-    throw reader.error("levels", "branching^levels exceeds 2e7 words");
-  o.seed = reader.get<uint64_t>("seed", o.seed);
-  o.max_iterations = reader.get<int>("max_iterations", o.max_iterations);
-  requireInRange(reader, "max_iterations", o.max_iterations, 1, 1000);
-  o.descriptor_type = reader.get<std::string>("descriptor_type", o.descriptor_type);
+  const auto o = readOptions<VocabularyTrainingOptions>(reader);
   if (o.descriptor_type != "orb" && o.descriptor_type != "brief")
     throw reader.error("descriptor_type", "must be 'orb' or 'brief', got '" + o.descriptor_type + "'");
   return o;
 }
 
-std::string VocabularyTrainingOptions::toYaml() const {
-  std::ostringstream os;
-  os << "branching: " << branching << "\nlevels: " << levels << "\nseed: " << seed
-     << "\nmax_iterations: " << max_iterations << "\ndescriptor_type: " << descriptor_type << "\n";
-  return os.str();
-}
+std::string VocabularyTrainingOptions::toYaml() const { return optionTable().toYaml(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // Training: hierarchical k-medians

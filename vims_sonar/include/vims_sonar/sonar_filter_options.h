@@ -12,6 +12,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct SonarFilterOptions {
   /// Accepted samples in the trend window, whose detrended median is the filtered output.
   /// 7 samples = 0.6 s at the contract's 10 Hz: long enough for the median to ignore one bad
@@ -40,6 +43,8 @@ struct SonarFilterOptions {
   /// a reset (the held samples are then emitted together, in order).
   int acquire_samples = 4;
 
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<SonarFilterOptions>& optionTable();
   /// Reads the options from a mapping (e.g. config/sonar.yaml or a `sonar_filter:` section).
   /// Missing keys keep their defaults; unknown keys and out-of-range values throw ConfigError
   /// naming the key.

@@ -20,12 +20,18 @@
 
 namespace vims {
 
+struct OptionRow;
+
 struct SystemConfig {
   SonarFilterOptions sonar;
   MagnetometerOptions magnetometer;
   TrackerOptions tracker;
   EstimatorOptions estimator;
   PoseGraphManagerOptions pose_graph;
+
+  /// Every key of every section with the values it accepts, e.g. {"estimator.window_size",
+  /// "whole number [2, 50]"}: what `vims_offline --list-options` prints and docs/parameters.md shows.
+  static std::vector<OptionRow> optionRows();
 
   /// The section names, in pipeline order.
   static const std::vector<std::string>& sections();

@@ -37,11 +37,17 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct ReprojectionOptions {
   /// [px] Standard deviation of a tracked, undistorted feature position: KLT tracks to ~0.5-1 px
   /// and the radtan undistortion and motion blur of an AUV camera add about as much; VINS-Mono
   /// uses the same 1.5 px.
   double pixel_sigma = 1.5;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<ReprojectionOptions>& optionTable();
 
   /// Reads {pixel_sigma}; unknown keys and values <= 0 throw ConfigError naming the key.
   static ReprojectionOptions fromReader(const ConfigReader& reader);

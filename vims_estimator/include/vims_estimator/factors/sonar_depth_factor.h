@@ -67,6 +67,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct SonarDepthOptions {
   /// [m] Deviation of the seabed from the plane at the beam spot: a tank floor is flat to a few
   /// centimetres, sand ripples are 2-5 cm high (the growth with distance is misfit_per_m).
@@ -122,6 +125,9 @@ struct SonarDepthOptions {
   /// Standard deviation of the carried seabed height at horizontal distance `distance_m` from
   /// the fix: sqrt(sonar_sigma^2 + (carry_slope_std * distance_m)^2).
   double carriedSigma(double sonar_sigma, double distance_m) const;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<SonarDepthOptions>& optionTable();
 
   /// Reads {flatness_std, misfit_per_m, learn_misfit, misfit_history_hits, misfit_min_pairs,
   /// gate_chi2, gate_max_height_difference,

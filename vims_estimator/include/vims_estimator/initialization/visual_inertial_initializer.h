@@ -27,6 +27,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct VisualInertialInitOptions {
   /// Without the sonar, initialise the VIO with this SfM + IMU alignment (true), or from gravity
   /// alone with zero velocity and IMU-only scale (false). Off by default: on the tank sequences
@@ -59,6 +62,9 @@ struct VisualInertialInitOptions {
   double accel_bias_sigma = 0.05;
   /// [m] Noise of the SfM camera positions once scaled (enters every position equation).
   double sfm_position_sigma_m = 0.005;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<VisualInertialInitOptions>& optionTable();
 
   static VisualInertialInitOptions fromReader(const ConfigReader& reader);
   std::string toYaml() const;

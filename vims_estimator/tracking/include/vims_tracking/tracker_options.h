@@ -10,6 +10,9 @@
 
 namespace vims {
 
+template <typename Options>
+class OptionTable;
+
 struct TrackerOptions {
   // ---- feature budget and spread ----
   /// Features kept per frame. 150 constrains the sliding window well while KLT stays at a few ms.
@@ -107,6 +110,9 @@ struct TrackerOptions {
   /// Reads the options from a mapping (e.g. the `tracker:` section of a vims_offline configuration).
   /// Absent keys keep their defaults; unknown keys and out-of-range values throw ConfigError
   /// naming the key.
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<TrackerOptions>& optionTable();
   static TrackerOptions fromReader(const ConfigReader& reader);
 
   /// Throws ConfigError naming the first option out of range (for options built in code).
