@@ -46,8 +46,6 @@ def module_of(path):
     """The core module a source file belongs to, or None for an entry point or a non-module file."""
     if ENTRY_POINT.search(path):
         return None
-    if path.startswith("vims_estimator/tracking/"):
-        return "vims_tracking"
     top = path.split("/", 1)[0]
     return top if top in ALLOWED else None
 

@@ -102,7 +102,7 @@ TEST(TrackerOnSequence, Tank30KeepsEnoughLongTracks) {
 
 TEST(TrackerOnSequence, BlackoutEndsTracksAndRecovers) {
   // Sequence with the lamp failing for t in [4, 6) s (black frames with sensor noise) and no
-  // images at all for [7, 7.5) s, see tracking.cmake.
+  // images at all for [7, 7.5) s, see vims_tracking/CMakeLists.txt.
   const std::string dir = sequenceDir("tank_blackout10");
   if (dir.empty()) GTEST_SKIP() << "VIMS_TEST_DATA is not set (run through ctest, fixture sim_tank_blackout10)";
   const vims::SequencePaths paths = vims::SequencePaths::resolve(dir);

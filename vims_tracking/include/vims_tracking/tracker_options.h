@@ -107,12 +107,11 @@ struct TrackerOptions {
   double ransac_confidence = 0.99;
   int ransac_max_iterations = 1000;
 
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<TrackerOptions>& optionTable();
   /// Reads the options from a mapping (e.g. the `tracker:` section of a vims_offline configuration).
   /// Absent keys keep their defaults; unknown keys and out-of-range values throw ConfigError
   /// naming the key.
-
-  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
-  static const OptionTable<TrackerOptions>& optionTable();
   static TrackerOptions fromReader(const ConfigReader& reader);
 
   /// Throws ConfigError naming the first option out of range (for options built in code).
