@@ -463,6 +463,39 @@ bool VioEstimator::initializeVisualInertial(const TrackedFrame& tracked, const c
   return true;
 }
 
+void VioEstimator::completeResult(VioStatus status, VioFrameResult* result) const {
+  result->status = status;
+  result->session = session_;
+  result->td = td_[0];
+  if (!frames_.empty() && status != VioStatus::kReset && status != VioStatus::kWaitingForImu) {
+    const Frame& f = *frames_.back();
+    if (status != VioStatus::kNoVisualUpdate) {
+      result->T_odom_b = f.T_l_b();
+      result->v_odom_b = sbVelocity(f.sb);
+      result->accel_bias = sbAccelBias(f.sb);
+      result->gyro_bias = sbGyroBias(f.sb);
+      result->t_state = f.t_state;
+    }
+    // Move the state to the recorded stamp: dt = td_frame is a few ms, first order is enough.
+    const double dt = result->t_stamp - result->t_state;
+    Eigen::Vector3d w = Eigen::Vector3d::Zero();
+    auto it = std::lower_bound(imu_.begin(), imu_.end(), result->t_state,
+                               [](const ImuSample& s, double value) { return s.t < value; });
+    if (it != imu_.end()) w = it->gyro - result->gyro_bias;
+    result->T_odom_b_at_stamp = result->T_odom_b;
+    result->T_odom_b_at_stamp.translation() += result->v_odom_b * dt;
+    result->T_odom_b_at_stamp.linear() =
+        (Eigen::Quaterniond(result->T_odom_b.linear()) * so3::exp(w * dt)).normalized().toRotationMatrix();
+    result->seabed_slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
+    if (f.sonar_range)
+      result->sonar_hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
+    if (seabed_fix_) {
+      const SeabedPlane plane{seabed_fix_->height, seabed_fix_->xy, seabed_fix_->slope};
+      result->seabed_height = plane.heightAt(result->T_odom_b.translation().head<2>());
+    }
+  }
+}
+
 void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& image) {
   const auto start = std::chrono::steady_clock::now();
   VioFrameResult result;
@@ -470,36 +503,7 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
   const double t_state = tracked.t - td_[0];
   result.t_state = t_state;
   auto finish = [&](VioStatus status) {
-    result.status = status;
-    result.session = session_;
-    result.td = td_[0];
-    if (!frames_.empty() && status != VioStatus::kReset && status != VioStatus::kWaitingForImu) {
-      const Frame& f = *frames_.back();
-      if (status != VioStatus::kNoVisualUpdate) {
-        result.T_odom_b = f.T_l_b();
-        result.v_odom_b = sbVelocity(f.sb);
-        result.accel_bias = sbAccelBias(f.sb);
-        result.gyro_bias = sbGyroBias(f.sb);
-        result.t_state = f.t_state;
-      }
-      // Move the state to the recorded stamp: dt = td_frame is a few ms, first order is enough.
-      const double dt = result.t_stamp - result.t_state;
-      Eigen::Vector3d w = Eigen::Vector3d::Zero();
-      auto it = std::lower_bound(imu_.begin(), imu_.end(), result.t_state,
-                                 [](const ImuSample& s, double value) { return s.t < value; });
-      if (it != imu_.end()) w = it->gyro - result.gyro_bias;
-      result.T_odom_b_at_stamp = result.T_odom_b;
-      result.T_odom_b_at_stamp.translation() += result.v_odom_b * dt;
-      result.T_odom_b_at_stamp.linear() =
-          (Eigen::Quaterniond(result.T_odom_b.linear()) * so3::exp(w * dt)).normalized().toRotationMatrix();
-      result.seabed_slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
-      if (f.sonar_range)
-        result.sonar_hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
-      if (seabed_fix_) {
-        const SeabedPlane plane{seabed_fix_->height, seabed_fix_->xy, seabed_fix_->slope};
-        result.seabed_height = plane.heightAt(result.T_odom_b.translation().head<2>());
-      }
-    }
+    completeResult(status, &result);
     result.backend_ms = millisecondsSince(start);
     results_.push_back(result);
   };

@@ -392,52 +392,58 @@ std::vector<ProcessResult> runProcesses(const std::vector<std::vector<std::strin
 // The command
 // ------------------------------------------------------------------------------------------
 
-std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostream& out, std::ostream& err) {
-  const SequencePaths seq = SequencePaths::resolve(options.sequence_dir);
-  if (seq.gt.empty())
-    throw std::runtime_error("sequence '" + options.sequence_dir + "' has no ground truth '" + seq.name + "_gt.tum'");
-  const auto gt = readTumFile(seq.gt);
-  if (gt.empty()) throw std::runtime_error("ground truth '" + seq.gt + "' holds no pose");
-  std::error_code ec;
-  fs::create_directories(options.out_dir, ec);
-  if (!fs::is_directory(options.out_dir))
-    throw std::runtime_error("cannot create output directory '" + options.out_dir + "'");
+namespace {
 
-  auto runDir = [&](const std::string& mode) { return (fs::path(options.out_dir) / mode).string(); };
-  auto mapFile = [&](const std::string& mode) { return (fs::path(runDir(mode)) / "map.vimsmap").string(); };
-  std::map<std::string, std::string> run_failure;
-  if (options.run) {
-    if (!fs::exists(options.offline_binary))
-      throw std::runtime_error("vims_offline not found at '" + options.offline_binary + "' (use --offline PATH)");
-    std::vector<std::vector<std::string>> commands;
-    std::vector<std::string> logs;
-    for (const auto& mode : options.modes) {
-      fs::create_directories(runDir(mode), ec);
-      std::vector<std::string> cmd = {options.offline_binary, "--sequence", seq.dir, "--out",
-                                      runDir(mode),           "--mode",     mode,    "--map-save",
-                                      mapFile(mode),          "--quiet"};
-      if (!options.offline_config.empty()) {
-        cmd.push_back("--config");
-        cmd.push_back(options.offline_config);
-      }
-      commands.push_back(cmd);
-      logs.push_back((fs::path(runDir(mode)) / "offline.log").string());
+std::string runDirOf(const AblationOptions& options, const std::string& mode) {
+  return (fs::path(options.out_dir) / mode).string();
+}
+
+std::string mapFileOf(const AblationOptions& options, const std::string& mode) {
+  return (fs::path(runDirOf(options, mode)) / "map.vimsmap").string();
+}
+
+/// Runs vims_offline once per mode, `options.jobs` at a time. Returns why a mode's run failed,
+/// for the modes whose run failed.
+std::map<std::string, std::string> runVariants(const AblationOptions& options, const SequencePaths& seq,
+                                               std::ostream& out) {
+  if (!fs::exists(options.offline_binary))
+    throw std::runtime_error("vims_offline not found at '" + options.offline_binary + "' (use --offline PATH)");
+  std::error_code ec;
+  std::vector<std::vector<std::string>> commands;
+  std::vector<std::string> logs;
+  for (const auto& mode : options.modes) {
+    fs::create_directories(runDirOf(options, mode), ec);
+    std::vector<std::string> cmd = {options.offline_binary,   "--sequence", seq.dir, "--out",
+                                    runDirOf(options, mode),  "--mode",     mode,    "--map-save",
+                                    mapFileOf(options, mode), "--quiet"};
+    if (!options.offline_config.empty()) {
+      cmd.push_back("--config");
+      cmd.push_back(options.offline_config);
     }
-    out << "== ablation: " << options.modes.size() << " variants of vims_offline on " << seq.dir << ", " << options.jobs
-        << " at a time" << std::endl;
-    const auto results = runProcesses(commands, logs, options.jobs, out);
-    for (std::size_t i = 0; i < options.modes.size(); ++i) {
-      const ProcessResult& r = results[i];
-      if (!r.error.empty()) {
-        run_failure[options.modes[i]] = "vims_offline: " + r.error;
-      } else if (r.exit_code != 0) {
-        const std::string tail = lastLines(logs[i], 1);
-        run_failure[options.modes[i]] =
-            "vims_offline exit status " + std::to_string(r.exit_code) + (tail.empty() ? "" : " (" + tail + ")");
-      }
+    commands.push_back(cmd);
+    logs.push_back((fs::path(runDirOf(options, mode)) / "offline.log").string());
+  }
+  out << "== ablation: " << options.modes.size() << " variants of vims_offline on " << seq.dir << ", " << options.jobs
+      << " at a time" << std::endl;
+  const auto results = runProcesses(commands, logs, options.jobs, out);
+  std::map<std::string, std::string> run_failure;
+  for (std::size_t i = 0; i < options.modes.size(); ++i) {
+    const ProcessResult& r = results[i];
+    if (!r.error.empty()) {
+      run_failure[options.modes[i]] = "vims_offline: " + r.error;
+    } else if (r.exit_code != 0) {
+      const std::string tail = lastLines(logs[i], 1);
+      run_failure[options.modes[i]] =
+          "vims_offline exit status " + std::to_string(r.exit_code) + (tail.empty() ? "" : " (" + tail + ")");
     }
   }
+  return run_failure;
+}
 
+/// One row per mode, in the order of options.modes: a failed row for a failed run, else the
+/// evaluation of the run's outputs. Every failed row is also reported on `err`.
+std::vector<AblationRow> evaluateVariants(const AblationOptions& options, const std::vector<StampedPose>& gt,
+                                          const std::map<std::string, std::string>& run_failure, std::ostream& err) {
   std::vector<AblationRow> rows;
   for (const auto& mode : options.modes) {
     const auto failure = run_failure.find(mode);
@@ -450,89 +456,125 @@ std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostrea
       err << "vims_eval ablation: " << mode << ": " << failure->second << "\n";
       continue;
     }
-    rows.push_back(evaluateAblationRun(mode, runDir(mode), gt, options.eval));
+    rows.push_back(evaluateAblationRun(mode, runDirOf(options, mode), gt, options.eval));
     if (!rows.back().ok) err << "vims_eval ablation: " << mode << ": " << rows.back().error << "\n";
   }
+  return rows;
+}
+
+/// The magnetic stage against vision alone, in words; empty unless both full and no_alter were
+/// evaluated with their loops.
+std::string magneticRecallText(const std::vector<AblationRow>& rows) {
+  const AblationRow* full = okRowOf(rows, "full");
+  const AblationRow* vision = okRowOf(rows, "no_alter");
+  if (!(full && vision && full->has_loops && vision->has_loops)) return std::string();
+  const MagneticStageRecall m = magneticStageRecall(*full, *vision);
+  std::ostringstream os;
+  os << "The magnetic stage against vision alone (w/o Alter.): of the " << m.vision_queries
+     << " query keyframes w/o Alter. closed with a correct loop, full closed " << m.same_query
+     << " at the same keyframe and " << m.within_window << " within " << fixed(m.window_s, 0) << " s; full closed "
+     << m.full_only << " queries w/o Alter. did not.\n";
+  return os.str();
+}
+
+void writeAblationMarkdown(const std::string& md_path, const std::string& sequence_name, const std::string& table,
+                           const EvalOptions& eval, const std::vector<AblationClaim>& claims,
+                           const std::string& recall_text) {
+  std::ofstream md(md_path);
+  md << "# Ablation study: " << sequence_name << "\n\n"
+     << table << "\n"
+     << "Loop closing: correct loops / loop verification attempts (loops.csv rows); a loop is correct within "
+     << fixed(eval.loops.trans_tol_m, 2) << " m and " << fixed(eval.loops.rot_tol_deg, 1)
+     << " deg of the ground truth. Trans./Rot. RMSE: global.tum against the ground truth after SE3 alignment. "
+        "Revisits: ground-truth revisit events (radius "
+     << fixed(eval.revisit.radius_m, 2) << " m, gap " << fixed(eval.revisit.min_gap_s, 0)
+     << " s) closed by a correct loop. docs/evaluation.md, \"Ablation\".\n\n"
+     << "The paper's ablation order:\n\n"
+     << ablationClaimsMarkdown(claims) << "\n"
+     << recall_text;
+  if (!md) throw std::runtime_error("cannot write '" + md_path + "'");
+}
+
+void writeAblationCsv(const std::string& csv_path, const std::vector<AblationRow>& rows) {
+  std::ofstream csv(csv_path);
+  csv << ablationCsv(rows);
+  if (!csv) throw std::runtime_error("cannot write '" + csv_path + "'");
+}
+
+/// The trajectory and map figures, and place recognition, for the modes that were evaluated.
+/// Returns the files written. Figures are extras: a failure is reported and does not lose the table.
+std::vector<std::string> writeFigures(const AblationOptions& options, const SequencePaths& seq,
+                                      const std::vector<StampedPose>& gt, const std::vector<AblationRow>& rows,
+                                      std::ostream& out, std::ostream& err) {
+  std::vector<std::string> figures;
+  auto attempt = [&](const std::string& what, const std::function<std::vector<std::string>()>& make) {
+    try {
+      for (const auto& p : make()) figures.push_back(p);
+    } catch (const std::exception& e) {
+      err << "vims_eval ablation: figure " << what << ": " << e.what() << "\n";
+    }
+  };
+  auto have = [&](const std::string& mode) { return okRowOf(rows, mode) != nullptr; };
+  std::vector<std::pair<std::string, std::string>> trajectories;
+  if (have("vi_slam"))
+    trajectories.emplace_back("VI-SLAM", (fs::path(runDirOf(options, "vi_slam")) / "global.tum").string());
+  if (have("full")) trajectories.emplace_back("VIMS", (fs::path(runDirOf(options, "full")) / "global.tum").string());
+  if (!trajectories.empty())
+    attempt("trajectories", [&] {
+      return std::vector<std::string>{
+          writeTrajectoryComparison(gt, trajectories, (fs::path(options.out_dir) / "trajectories_top.png").string())};
+    });
+  if (have("full") && fs::exists(mapFileOf(options, "full")))
+    attempt("multi-scale map", [&] {
+      return std::vector<std::string>{
+          writeMultiScaleMapFigure(mapFileOf(options, "full"), "orb", options.package_root,
+                                   (fs::path(options.out_dir) / "multiscale_map.png").string())};
+    });
+  if (have("full") && have("vi_slam") && fs::exists(mapFileOf(options, "full")) &&
+      fs::exists(mapFileOf(options, "vi_slam")))
+    attempt("place recognition", [&] {
+      PlaceRecognitionInputs in;
+      in.sequence_dir = seq.dir;
+      in.orb_map = mapFileOf(options, "full");
+      in.brief_map = mapFileOf(options, "vi_slam");
+      in.signatures_csv = (fs::path(runDirOf(options, "full")) / "mag_signatures.csv").string();
+      in.package_root = options.package_root;
+      const PlaceRecognitionOptions pr_options = options.offline_config.empty()
+                                                     ? PlaceRecognitionOptions()
+                                                     : placeRecognitionOptionsFromConfig(options.offline_config);
+      const PlaceRecognitionResult pr =
+          runPlaceRecognition(in, pr_options, (fs::path(options.out_dir) / "place_recognition").string(), out);
+      return pr.figures;
+    });
+  return figures;
+}
+
+}  // namespace
+
+std::vector<AblationRow> runAblation(const AblationOptions& options, std::ostream& out, std::ostream& err) {
+  const SequencePaths seq = SequencePaths::resolve(options.sequence_dir);
+  if (seq.gt.empty())
+    throw std::runtime_error("sequence '" + options.sequence_dir + "' has no ground truth '" + seq.name + "_gt.tum'");
+  const auto gt = readTumFile(seq.gt);
+  if (gt.empty()) throw std::runtime_error("ground truth '" + seq.gt + "' holds no pose");
+  std::error_code ec;
+  fs::create_directories(options.out_dir, ec);
+  if (!fs::is_directory(options.out_dir))
+    throw std::runtime_error("cannot create output directory '" + options.out_dir + "'");
+
+  std::map<std::string, std::string> run_failure;
+  if (options.run) run_failure = runVariants(options, seq, out);
+  std::vector<AblationRow> rows = evaluateVariants(options, gt, run_failure, err);
 
   const std::string md_path = (fs::path(options.out_dir) / "ablation.md").string();
   const std::string csv_path = (fs::path(options.out_dir) / "ablation.csv").string();
   const std::string table = ablationMarkdown(rows);
   const std::vector<AblationClaim> claims = ablationClaims(rows);
-  std::string recall_text;
-  {
-    const AblationRow* full = okRowOf(rows, "full");
-    const AblationRow* vision = okRowOf(rows, "no_alter");
-    if (full && vision && full->has_loops && vision->has_loops) {
-      const MagneticStageRecall m = magneticStageRecall(*full, *vision);
-      std::ostringstream os;
-      os << "The magnetic stage against vision alone (w/o Alter.): of the " << m.vision_queries
-         << " query keyframes w/o Alter. closed with a correct loop, full closed " << m.same_query
-         << " at the same keyframe and " << m.within_window << " within " << fixed(m.window_s, 0) << " s; full closed "
-         << m.full_only << " queries w/o Alter. did not.\n";
-      recall_text = os.str();
-    }
-  }
-  {
-    std::ofstream md(md_path);
-    md << "# Ablation study: " << seq.name << "\n\n"
-       << table << "\n"
-       << "Loop closing: correct loops / loop verification attempts (loops.csv rows); a loop is correct within "
-       << fixed(options.eval.loops.trans_tol_m, 2) << " m and " << fixed(options.eval.loops.rot_tol_deg, 1)
-       << " deg of the ground truth. Trans./Rot. RMSE: global.tum against the ground truth after SE3 alignment. "
-          "Revisits: ground-truth revisit events (radius "
-       << fixed(options.eval.revisit.radius_m, 2) << " m, gap " << fixed(options.eval.revisit.min_gap_s, 0)
-       << " s) closed by a correct loop. docs/evaluation.md, \"Ablation\".\n\n"
-       << "The paper's ablation order:\n\n"
-       << ablationClaimsMarkdown(claims) << "\n"
-       << recall_text;
-    if (!md) throw std::runtime_error("cannot write '" + md_path + "'");
-  }
-  {
-    std::ofstream csv(csv_path);
-    csv << ablationCsv(rows);
-    if (!csv) throw std::runtime_error("cannot write '" + csv_path + "'");
-  }
-
+  const std::string recall_text = magneticRecallText(rows);
+  writeAblationMarkdown(md_path, seq.name, table, options.eval, claims, recall_text);
+  writeAblationCsv(csv_path, rows);
   std::vector<std::string> figures;
-  if (options.figures) {
-    // Figures are extras: a failure is reported and does not lose the table.
-    auto attempt = [&](const std::string& what, const std::function<std::vector<std::string>()>& make) {
-      try {
-        for (const auto& p : make()) figures.push_back(p);
-      } catch (const std::exception& e) {
-        err << "vims_eval ablation: figure " << what << ": " << e.what() << "\n";
-      }
-    };
-    auto have = [&](const std::string& mode) { return okRowOf(rows, mode) != nullptr; };
-    std::vector<std::pair<std::string, std::string>> trajectories;
-    if (have("vi_slam")) trajectories.emplace_back("VI-SLAM", (fs::path(runDir("vi_slam")) / "global.tum").string());
-    if (have("full")) trajectories.emplace_back("VIMS", (fs::path(runDir("full")) / "global.tum").string());
-    if (!trajectories.empty())
-      attempt("trajectories", [&] {
-        return std::vector<std::string>{
-            writeTrajectoryComparison(gt, trajectories, (fs::path(options.out_dir) / "trajectories_top.png").string())};
-      });
-    if (have("full") && fs::exists(mapFile("full")))
-      attempt("multi-scale map", [&] {
-        return std::vector<std::string>{writeMultiScaleMapFigure(
-            mapFile("full"), "orb", options.package_root, (fs::path(options.out_dir) / "multiscale_map.png").string())};
-      });
-    if (have("full") && have("vi_slam") && fs::exists(mapFile("full")) && fs::exists(mapFile("vi_slam")))
-      attempt("place recognition", [&] {
-        PlaceRecognitionInputs in;
-        in.sequence_dir = seq.dir;
-        in.orb_map = mapFile("full");
-        in.brief_map = mapFile("vi_slam");
-        in.signatures_csv = (fs::path(runDir("full")) / "mag_signatures.csv").string();
-        in.package_root = options.package_root;
-        const PlaceRecognitionOptions pr_options = options.offline_config.empty()
-                                                       ? PlaceRecognitionOptions()
-                                                       : placeRecognitionOptionsFromConfig(options.offline_config);
-        const PlaceRecognitionResult pr =
-            runPlaceRecognition(in, pr_options, (fs::path(options.out_dir) / "place_recognition").string(), out);
-        return pr.figures;
-      });
-  }
+  if (options.figures) figures = writeFigures(options, seq, gt, rows, out, err);
 
   out << "\n== ablation (" << seq.name << "): global trajectory vs ground truth, loops from loops.csv\n" << table;
   for (const auto& f : figures) out << "   figure: " << f << "\n";

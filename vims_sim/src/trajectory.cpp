@@ -85,6 +85,238 @@ double smoothstep01(double x) {
   return x * x * (3.0 - 2.0 * x);
 }
 
+/// The horizontal path: laps of the pattern with seeded waypoint jitter, long enough
+/// that even at the maximum cruise speed the vehicle never reaches its end, and never shorter
+/// than what the pace calibration of SpeedProfile looks at.
+PlanarPath surveyPath(const TrajectoryParams& params, const ScenarioDesign& design, Rng& jitter_rng) {
+  const double time_needed =
+      std::max(params.duration, design.reference_time) + 2.0 * params.margin + 10.0 * kKnotSpacing;
+  const double length_needed = time_needed * design.cruise_max + 10.0;
+  std::vector<Eigen::Vector2d> waypoints;
+  double polyline_length = 0.0;
+  while (polyline_length < length_needed + 20.0) {
+    for (const auto& base : design.lap) {
+      Eigen::Vector2d w = base;
+      if (!waypoints.empty()) {  // the very first waypoint (the start) stays on the pattern
+        w += Eigen::Vector2d(jitter_rng.uniform(-1.0, 1.0), jitter_rng.uniform(-1.0, 1.0)) * design.waypoint_jitter;
+        polyline_length += (w - waypoints.back()).norm();
+      }
+      waypoints.push_back(w);
+    }
+  }
+  return PlanarPath::roundedPolyline(waypoints, design.corner_radius);
+}
+
+/// Where the vehicle is on the path at one time.
+struct ArcState {
+  double s;  // [m] arc length
+  double v;  // [m/s] speed
+};
+
+/// Speed along the path: a wandering cruise speed, limited in turns by the lateral
+/// acceleration, then made feasible with bounded longitudinal acceleration (backward pass
+/// for braking before turns, forward pass from rest). The mean cruise speed is scaled so the
+/// scenario's reference pace is met whatever the seed (a few fixed-point iterations).
+class SpeedProfile {
+ public:
+  /// The profile along `path`, its cruise variation seeded by `cruise_seed`, starting from rest
+  /// at motion_start.
+  SpeedProfile(const ScenarioDesign& design, const PlanarPath& path, uint64_t cruise_seed, double motion_start)
+      : cruise_max_(design.cruise_max),
+        dv2_(2.0 * design.longitudinal_accel * kArcStep),
+        motion_start_(motion_start),
+        path_length_(path.length()) {
+    const SmoothNoise1D cruise_noise(cruise_seed, design.cruise_wavelength);
+    const int n = static_cast<int>(std::ceil(path.length() / kArcStep)) + 1;
+    base_speed_.resize(n);
+    turn_limit_.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const double s = std::min(i * kArcStep, path.length());
+      base_speed_[i] = 1.0 + design.cruise_variation * cruise_noise.at(s);
+      const double curvature = std::abs(path.at(s).curvature);
+      turn_limit_[i] = curvature > 1e-9 ? std::sqrt(design.lateral_accel / curvature) : design.cruise_max;
+    }
+    speed_.resize(n);
+    time_at_.resize(n);
+    double mean_cruise = design.reference_travel / design.reference_time;
+    for (int iteration = 0; iteration < 6; ++iteration) {
+      build(mean_cruise);
+      const double travel = travelAfter(design.reference_time);
+      if (travel >= path.length() - 1.0) break;  // path shorter than the reference: keep the pace
+      mean_cruise *= design.reference_travel / std::max(travel, 1.0);
+    }
+    build(mean_cruise);
+  }
+
+  /// Arc length and speed at time tau: at rest before the motion starts, at the end of the path
+  /// once it is reached.
+  ArcState at(double tau) const {
+    if (tau <= motion_start_) return {0.0, 0.0};
+    if (tau >= time_at_.back()) return {path_length_, speed_.back()};
+    const auto it = std::upper_bound(time_at_.begin(), time_at_.end(), tau);
+    const int i = static_cast<int>(it - time_at_.begin()) - 1;
+    const double f = (tau - time_at_[i]) / (time_at_[i + 1] - time_at_[i]);
+    return {(i + f) * kArcStep, speed_[i] + f * (speed_[i + 1] - speed_[i])};
+  }
+
+  double motionStart() const { return motion_start_; }
+
+ private:
+  /// Speed and time on the arc-length grid for a mean cruise speed.
+  void build(double mean_cruise) {
+    const int n = static_cast<int>(speed_.size());
+    for (int i = 0; i < n; ++i) {
+      speed_[i] = std::min({mean_cruise * base_speed_[i], cruise_max_, turn_limit_[i]});
+    }
+    for (int i = n - 2; i >= 0; --i) speed_[i] = std::min(speed_[i], std::sqrt(speed_[i + 1] * speed_[i + 1] + dv2_));
+    speed_[0] = 0.0;
+    for (int i = 1; i < n; ++i) speed_[i] = std::min(speed_[i], std::sqrt(speed_[i - 1] * speed_[i - 1] + dv2_));
+    time_at_[0] = motion_start_;
+    for (int i = 1; i < n; ++i) time_at_[i] = time_at_[i - 1] + 2.0 * kArcStep / (speed_[i - 1] + speed_[i]);
+  }
+
+  /// Arc length reached after motion_time of motion (on the grid).
+  double travelAfter(double motion_time) const {
+    const auto it = std::upper_bound(time_at_.begin(), time_at_.end(), motion_start_ + motion_time);
+    return static_cast<double>(it - time_at_.begin()) * kArcStep;
+  }
+
+  double cruise_max_;    // [m/s]
+  double dv2_;           // [m^2/s^2] largest change of v^2 over one kArcStep
+  double motion_start_;  // [s]
+  double path_length_;   // [m]
+  // On the arc-length grid i * kArcStep:
+  std::vector<double> base_speed_;  // cruise speed relative to the mean
+  std::vector<double> turn_limit_;  // [m/s]
+  std::vector<double> speed_;       // [m/s]
+  std::vector<double> time_at_;     // [s] when the vehicle is there
+};
+
+/// Altitude above the seabed's large-scale shape (z = 0 when flat): two slow
+/// undulations keep it in [2.1, 4.9] m with climb slopes below 0.3 (0.1 m/s at cruise speed).
+struct AltitudeProfile {
+  static constexpr double kMean = 3.5;
+  static constexpr double kAmp1 = 1.1, kAmp2 = 0.3;
+  double wave1 = 0.0, wave2 = 0.0;    // [m] along-path wavelengths
+  double phase1 = 0.0, phase2 = 0.0;  // [rad]
+
+  /// Altitude at arc length s.
+  double at(double s) const {
+    return kMean + kAmp1 * std::sin(2.0 * M_PI * s / wave1 + phase1) +
+           kAmp2 * std::sin(2.0 * M_PI * s / wave2 + phase2);
+  }
+  /// d(altitude) / ds.
+  double slope(double s) const {
+    return kAmp1 * 2.0 * M_PI / wave1 * std::cos(2.0 * M_PI * s / wave1 + phase1) +
+           kAmp2 * 2.0 * M_PI / wave2 * std::cos(2.0 * M_PI * s / wave2 + phase2);
+  }
+};
+
+AltitudeProfile drawAltitudeProfile(Rng& rng) {
+  AltitudeProfile altitude;
+  altitude.wave1 = rng.uniform(35.0, 50.0);
+  altitude.wave2 = rng.uniform(14.0, 20.0);
+  altitude.phase1 = rng.uniform(0.0, 2.0 * M_PI);
+  altitude.phase2 = rng.uniform(0.0, 2.0 * M_PI);
+  return altitude;
+}
+
+/// Attitude: yaw follows the path heading plus a small wandering crab angle; pitch
+/// has a trim, follows the climb a little and sways; roll has a trim, banks slightly in turns
+/// and sways. All motion terms fade in after the start so the static phase is truly static.
+class AttitudeMotion {
+ public:
+  /// Draws the seeded terms from `rng`, in this order.
+  explicit AttitudeMotion(Rng& rng) : crab_noise_(rng.next(), 20.0) {
+    pitch_trim_ = rng.uniform(-1.0, 1.0) * kDeg;
+    roll_trim_ = rng.uniform(-1.0, 1.0) * kDeg;
+    pitch_sway_ = rng.uniform(0.8, 1.5) * kDeg;
+    pitch_period_ = rng.uniform(9.0, 15.0);
+    roll_sway_ = rng.uniform(1.0, 2.0) * kDeg;
+    roll_period_ = rng.uniform(6.0, 11.0);
+    pitch_phase_ = rng.uniform(0.0, 2.0 * M_PI);
+    roll_phase_ = rng.uniform(0.0, 2.0 * M_PI);
+  }
+
+  /// (yaw, pitch, roll) at time tau at path point `pt`, with speed v and the slope of the
+  /// designed height along the path; the motion starts at motion_start.
+  Eigen::Vector3d euler(double tau, double motion_start, const PlanarPath::Point& pt, double v,
+                        double climb_slope) const {
+    const double fade = smoothstep01((tau - motion_start) / kFadeIn);
+    const double yaw = pt.heading + fade * kCrabAmplitude * crab_noise_.at(tau);
+    const double pitch = pitch_trim_ + fade * (-kPitchCoupling * std::atan(climb_slope) +
+                                               pitch_sway_ * std::sin(2.0 * M_PI * tau / pitch_period_ + pitch_phase_));
+    const double roll = roll_trim_ + fade * (-kBankGain * v * pt.curvature +
+                                             roll_sway_ * std::sin(2.0 * M_PI * tau / roll_period_ + roll_phase_));
+    return Eigen::Vector3d(yaw, pitch, roll);
+  }
+
+ private:
+  static constexpr double kCrabAmplitude = 1.5 * kDeg;
+  static constexpr double kPitchCoupling = 0.2;  // fraction of the climb angle the hull pitches
+  static constexpr double kBankGain = 0.15;      // [s] roll per yaw rate
+  static constexpr double kFadeIn = 15.0;        // [s]
+  SmoothNoise1D crab_noise_;
+  double pitch_trim_ = 0.0, roll_trim_ = 0.0;     // [rad]
+  double pitch_sway_ = 0.0, pitch_period_ = 0.0;  // [rad], [s]
+  double roll_sway_ = 0.0, roll_period_ = 0.0;    // [rad], [s]
+  double pitch_phase_ = 0.0, roll_phase_ = 0.0;   // [rad]
+};
+
+/// The height of the body where the terrain is not flat, at arc length s (path point `pt`), and
+/// the slope of that height along the path (`climb_slope`).
+double designedHeight(const TrajectoryParams& params, const SeabedTerrain& terrain, const AltitudeProfile& altitude,
+                      double s, const PlanarPath::Point& pt, double* climb_slope) {
+  if (params.depth_hold_z) {
+    *climb_slope = 0.0;
+    return *params.depth_hold_z;
+  }
+  Eigen::Vector2d ground_gradient;
+  const double ground = params.hold_plane_only ? terrain.planeHeight(pt.position.x(), pt.position.y(), &ground_gradient)
+                                               : terrain.largeScale(pt.position.x(), pt.position.y(), &ground_gradient);
+  *climb_slope = altitude.slope(s) + ground_gradient.dot(Eigen::Vector2d(std::cos(pt.heading), std::sin(pt.heading)));
+  return ground + altitude.at(s);
+}
+
+/// Control points of the two quintic splines, on knots kKnotSpacing apart from t0.
+struct SplineControlPoints {
+  double t0 = 0.0;
+  std::vector<Eigen::Vector3d> position;  // p_w_b
+  std::vector<Eigen::Vector3d> euler;     // (yaw, pitch, roll)
+};
+
+SplineControlPoints designControlPoints(const TrajectoryParams& params, const PlanarPath& path,
+                                        const SpeedProfile& speed, const AltitudeProfile& altitude,
+                                        const AttitudeMotion& attitude) {
+  // Where the terrain is not flat, the designed height is the large-scale seabed plus the
+  // altitude profile (altitude hold) or a constant (depth hold), and the climb the hull pitches
+  // with is that height's slope along the path. The flat seabed keeps the plain profile.
+  const bool flat_altitude_hold = params.terrain.isFlat() && !params.depth_hold_z;
+  const SeabedTerrain terrain(params.terrain);
+
+  SplineControlPoints control;
+  control.t0 = params.static_start - kKnotSpacing * std::ceil((params.static_start + params.margin) / kKnotSpacing);
+  const int num_control =
+      static_cast<int>(std::ceil((params.duration + params.margin - control.t0) / kKnotSpacing)) + kSplineDegree + 1;
+  control.position.resize(num_control);
+  control.euler.resize(num_control);
+  for (int j = 0; j < num_control; ++j) {
+    const double tau = control.t0 + (j - kSplineDegree / 2) * kKnotSpacing;
+    const ArcState arc = speed.at(tau);
+    const PlanarPath::Point pt = path.at(arc.s);
+    double z, climb_slope;
+    if (flat_altitude_hold) {
+      z = altitude.at(arc.s);
+      climb_slope = altitude.slope(arc.s);
+    } else {
+      z = designedHeight(params, terrain, altitude, arc.s, pt, &climb_slope);
+    }
+    control.position[j] = Eigen::Vector3d(pt.position.x(), pt.position.y(), z);
+    control.euler[j] = attitude.euler(tau, speed.motionStart(), pt, arc.v, climb_slope);
+  }
+  return control;
+}
+
 }  // namespace
 
 std::string scenarioName(Scenario scenario) { return scenario == Scenario::kTank ? "tank" : "field"; }
@@ -133,162 +365,25 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
   const ScenarioDesign design = scenarioDesign(params.scenario);
   // Independent streams per design element, so a short sequence is exactly the start of a
   // long one with the same seed (the number of laps drawn does not shift the other draws).
+  // The order of the draws from `rng` below (cruise noise, altitude, attitude) is part of
+  // every sequence: keep it.
   Rng rng(deriveSeed(params.seed, 0x7241));
   Rng jitter_rng(deriveSeed(params.seed, 0x7242));
 
-  // --- 1. The horizontal path: laps of the pattern with seeded waypoint jitter, long enough
-  // that even at the maximum cruise speed the vehicle never reaches its end, and never shorter
-  // than what the pace calibration below looks at.
-  const double time_needed =
-      std::max(params.duration, design.reference_time) + 2.0 * params.margin + 10.0 * kKnotSpacing;
-  const double length_needed = time_needed * design.cruise_max + 10.0;
-  std::vector<Eigen::Vector2d> waypoints;
-  double polyline_length = 0.0;
-  while (polyline_length < length_needed + 20.0) {
-    for (const auto& base : design.lap) {
-      Eigen::Vector2d w = base;
-      if (!waypoints.empty()) {  // the very first waypoint (the start) stays on the pattern
-        w += Eigen::Vector2d(jitter_rng.uniform(-1.0, 1.0), jitter_rng.uniform(-1.0, 1.0)) * design.waypoint_jitter;
-        polyline_length += (w - waypoints.back()).norm();
-      }
-      waypoints.push_back(w);
-    }
-  }
-  const PlanarPath path = PlanarPath::roundedPolyline(waypoints, design.corner_radius);
-
-  // --- 2. Speed along the path: a wandering cruise speed, limited in turns by the lateral
-  // acceleration, then made feasible with bounded longitudinal acceleration (backward pass
-  // for braking before turns, forward pass from rest). The mean cruise speed is scaled so the
-  // scenario's reference pace is met whatever the seed (a few fixed-point iterations).
-  const SmoothNoise1D cruise_noise(rng.next(), design.cruise_wavelength);
-  const int n = static_cast<int>(std::ceil(path.length() / kArcStep)) + 1;
-  std::vector<double> base_speed(n), turn_limit(n);
-  for (int i = 0; i < n; ++i) {
-    const double s = std::min(i * kArcStep, path.length());
-    base_speed[i] = 1.0 + design.cruise_variation * cruise_noise.at(s);
-    const double curvature = std::abs(path.at(s).curvature);
-    turn_limit[i] = curvature > 1e-9 ? std::sqrt(design.lateral_accel / curvature) : design.cruise_max;
-  }
+  const PlanarPath path = surveyPath(params, design, jitter_rng);
   // The path motion starts two knots after static_start: with the centred control points of a
   // quintic spline this makes the spline exactly constant up to static_start and moving after.
   const double motion_start = params.static_start + 2.0 * kKnotSpacing;
-  const double dv2 = 2.0 * design.longitudinal_accel * kArcStep;
-  std::vector<double> speed(n), time_at(n);
-  auto buildProfile = [&](double mean_cruise) {
-    for (int i = 0; i < n; ++i) {
-      speed[i] = std::min({mean_cruise * base_speed[i], design.cruise_max, turn_limit[i]});
-    }
-    for (int i = n - 2; i >= 0; --i) speed[i] = std::min(speed[i], std::sqrt(speed[i + 1] * speed[i + 1] + dv2));
-    speed[0] = 0.0;
-    for (int i = 1; i < n; ++i) speed[i] = std::min(speed[i], std::sqrt(speed[i - 1] * speed[i - 1] + dv2));
-    time_at[0] = motion_start;
-    for (int i = 1; i < n; ++i) time_at[i] = time_at[i - 1] + 2.0 * kArcStep / (speed[i - 1] + speed[i]);
-  };
-  auto travelAfter = [&](double motion_time) {
-    const auto it = std::upper_bound(time_at.begin(), time_at.end(), motion_start + motion_time);
-    return static_cast<double>(it - time_at.begin()) * kArcStep;
-  };
-  double mean_cruise = design.reference_travel / design.reference_time;
-  for (int iteration = 0; iteration < 6; ++iteration) {
-    buildProfile(mean_cruise);
-    const double travel = travelAfter(design.reference_time);
-    if (travel >= path.length() - 1.0) break;  // path shorter than the reference: keep the pace
-    mean_cruise *= design.reference_travel / std::max(travel, 1.0);
-  }
-  buildProfile(mean_cruise);
-
-  struct ArcState {
-    double s;
-    double v;
-  };
-  auto arcAt = [&](double tau) -> ArcState {
-    if (tau <= motion_start) return {0.0, 0.0};
-    if (tau >= time_at.back()) return {path.length(), speed.back()};
-    const auto it = std::upper_bound(time_at.begin(), time_at.end(), tau);
-    const int i = static_cast<int>(it - time_at.begin()) - 1;
-    const double f = (tau - time_at[i]) / (time_at[i + 1] - time_at[i]);
-    return {(i + f) * kArcStep, speed[i] + f * (speed[i + 1] - speed[i])};
-  };
-
-  // --- 3. Altitude above the seabed's large-scale shape (z = 0 when flat): two slow
-  // undulations keep it in [2.1, 4.9] m with climb slopes below 0.3 (0.1 m/s at cruise speed).
-  const double alt_mean = 3.5;
-  const double alt_amp1 = 1.1, alt_amp2 = 0.3;
-  const double alt_wave1 = rng.uniform(35.0, 50.0), alt_wave2 = rng.uniform(14.0, 20.0);
-  const double alt_phase1 = rng.uniform(0.0, 2.0 * M_PI), alt_phase2 = rng.uniform(0.0, 2.0 * M_PI);
-  auto altitude = [&](double s) {
-    return alt_mean + alt_amp1 * std::sin(2.0 * M_PI * s / alt_wave1 + alt_phase1) +
-           alt_amp2 * std::sin(2.0 * M_PI * s / alt_wave2 + alt_phase2);
-  };
-  auto altitudeSlope = [&](double s) {
-    return alt_amp1 * 2.0 * M_PI / alt_wave1 * std::cos(2.0 * M_PI * s / alt_wave1 + alt_phase1) +
-           alt_amp2 * 2.0 * M_PI / alt_wave2 * std::cos(2.0 * M_PI * s / alt_wave2 + alt_phase2);
-  };
-
-  // --- 4. Attitude: yaw follows the path heading plus a small wandering crab angle; pitch
-  // has a trim, follows the climb a little and sways; roll has a trim, banks slightly in turns
-  // and sways. All motion terms fade in after the start so the static phase is truly static.
-  const SmoothNoise1D crab_noise(rng.next(), 20.0);
-  const double crab_amplitude = 1.5 * kDeg;
-  const double pitch_trim = rng.uniform(-1.0, 1.0) * kDeg;
-  const double roll_trim = rng.uniform(-1.0, 1.0) * kDeg;
-  const double pitch_coupling = 0.2;  // fraction of the climb angle the hull pitches
-  const double bank_gain = 0.15;      // [s] roll per yaw rate
-  const double pitch_sway = rng.uniform(0.8, 1.5) * kDeg, pitch_period = rng.uniform(9.0, 15.0);
-  const double roll_sway = rng.uniform(1.0, 2.0) * kDeg, roll_period = rng.uniform(6.0, 11.0);
-  const double pitch_phase = rng.uniform(0.0, 2.0 * M_PI), roll_phase = rng.uniform(0.0, 2.0 * M_PI);
-  const double fade_in = 15.0;  // [s]
-
-  // Where the terrain is not flat, the designed height is the large-scale seabed plus the
-  // altitude profile (altitude hold) or a constant (depth hold), and the climb the hull pitches
-  // with is that height's slope along the path. The flat seabed keeps the plain profile.
-  const bool flat_altitude_hold = params.terrain.isFlat() && !params.depth_hold_z;
-  const SeabedTerrain terrain(params.terrain);
-  auto designedHeight = [&](double s, const PlanarPath::Point& pt, double* climb_slope) {
-    if (params.depth_hold_z) {
-      *climb_slope = 0.0;
-      return *params.depth_hold_z;
-    }
-    Eigen::Vector2d ground_gradient;
-    const double ground = params.hold_plane_only
-                              ? terrain.planeHeight(pt.position.x(), pt.position.y(), &ground_gradient)
-                              : terrain.largeScale(pt.position.x(), pt.position.y(), &ground_gradient);
-    *climb_slope = altitudeSlope(s) + ground_gradient.dot(Eigen::Vector2d(std::cos(pt.heading), std::sin(pt.heading)));
-    return ground + altitude(s);
-  };
-
-  // --- 5. Control points of the two quintic splines.
-  const double t0 =
-      params.static_start - kKnotSpacing * std::ceil((params.static_start + params.margin) / kKnotSpacing);
-  const int num_control =
-      static_cast<int>(std::ceil((params.duration + params.margin - t0) / kKnotSpacing)) + kSplineDegree + 1;
-  std::vector<Eigen::Vector3d> position_control(num_control), euler_control(num_control);
-  for (int j = 0; j < num_control; ++j) {
-    const double tau = t0 + (j - kSplineDegree / 2) * kKnotSpacing;
-    const ArcState arc = arcAt(tau);
-    const PlanarPath::Point pt = path.at(arc.s);
-    double z, climb_slope;
-    if (flat_altitude_hold) {
-      z = altitude(arc.s);
-      climb_slope = altitudeSlope(arc.s);
-    } else {
-      z = designedHeight(arc.s, pt, &climb_slope);
-    }
-    position_control[j] = Eigen::Vector3d(pt.position.x(), pt.position.y(), z);
-    const double fade = smoothstep01((tau - motion_start) / fade_in);
-    const double yaw = pt.heading + fade * crab_amplitude * crab_noise.at(tau);
-    const double pitch = pitch_trim + fade * (-pitch_coupling * std::atan(climb_slope) +
-                                              pitch_sway * std::sin(2.0 * M_PI * tau / pitch_period + pitch_phase));
-    const double roll = roll_trim + fade * (-bank_gain * arc.v * pt.curvature +
-                                            roll_sway * std::sin(2.0 * M_PI * tau / roll_period + roll_phase));
-    euler_control[j] = Eigen::Vector3d(yaw, pitch, roll);
-  }
+  const SpeedProfile speed(design, path, rng.next(), motion_start);
+  const AltitudeProfile altitude = drawAltitudeProfile(rng);
+  const AttitudeMotion attitude(rng);
+  SplineControlPoints control = designControlPoints(params, path, speed, altitude, attitude);
 
   Trajectory trajectory;
   trajectory.params_ = params;
-  trajectory.position_ = UniformBSpline<3>(kSplineDegree, t0, kKnotSpacing, std::move(position_control));
-  trajectory.euler_ = UniformBSpline<3>(kSplineDegree, t0, kKnotSpacing, std::move(euler_control));
-  trajectory.designed_travel_ = arcAt(params.duration).s;
+  trajectory.position_ = UniformBSpline<3>(kSplineDegree, control.t0, kKnotSpacing, std::move(control.position));
+  trajectory.euler_ = UniformBSpline<3>(kSplineDegree, control.t0, kKnotSpacing, std::move(control.euler));
+  trajectory.designed_travel_ = speed.at(params.duration).s;
   return trajectory;
 }
 

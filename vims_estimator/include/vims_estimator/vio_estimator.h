@@ -137,6 +137,9 @@ class VioEstimator {
 
   void processPendingFrames();
   void processFrame(const TrackedFrame& frame, const cv::Mat& image);
+  /// Completes a frame's result with `status` and the newest state: its pose moved to the
+  /// recorded stamp, the seabed slope, the sonar hit and the seabed height under the vehicle.
+  void completeResult(VioStatus status, VioFrameResult* result) const;
   bool initializeFirstFrame(const TrackedFrame& frame, const cv::Mat& image, double t_state);
   /// Sonar-free start: collects frames with parallax and runs the SfM + IMU alignment
   /// (VisualInertialInitializer); true once the window is built from its result.

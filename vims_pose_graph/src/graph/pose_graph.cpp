@@ -294,6 +294,132 @@ PoseGraphSnapshot PoseGraph4Dof::snapshot() const {
   return s;
 }
 
+namespace {
+
+/// Every factor of the snapshot must refer to one of its nodes.
+void checkSnapshotIndices(const PoseGraphSnapshot& s) {
+  const size_t n = s.nodes.size();
+  for (const SequentialEdge& e : s.sequential_edges)
+    if (e.from >= n || e.to >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+  for (const LoopEdge& e : s.loop_edges)
+    if (e.match >= n || e.query >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
+  for (const YawMeasurement& m : s.yaw_measurements)
+    if (m.node >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
+  for (const DepthMeasurement& m : s.depth_measurements)
+    if (m.node >= n)
+      throw std::invalid_argument("PoseGraph4Dof::solve: depth factor refers to a node outside the snapshot");
+}
+
+/// One Ceres solve of a snapshot over the solution arrays (warm-started from their current
+/// values) with a given loop loss. Nodes before first_free are held, and factors between held
+/// nodes only are left out (they cannot change anything). The problem borrows the manifold and
+/// the losses (shared by many residual blocks) and owns the cost functions.
+class SolveStage {
+ public:
+  SolveStage(const PoseGraphSnapshot& s, size_t first_free, ceres::LossFunction* mag_loss, PoseGraphSolution* sol)
+      : s_(s), first_free_(first_free), mag_loss_(mag_loss), sol_(*sol), problem_(problemOptions()) {}
+
+  PoseGraphStageReport run(ceres::LossFunction* loop_loss, RobustLoss loop_loss_type, ceres::Solver::Summary* summary) {
+    const auto build_start = std::chrono::steady_clock::now();
+    addFactors(loop_loss);
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    options.max_num_iterations = s_.options.max_iterations;
+    options.function_tolerance = s_.options.function_tolerance;
+    if (s_.options.max_solver_time_s > 0.0) options.max_solver_time_in_seconds = s_.options.max_solver_time_s;
+    options.num_threads = s_.options.num_threads;
+    options.logging_type = ceres::SILENT;
+    options.minimizer_progress_to_stdout = false;
+    const auto solve_start = std::chrono::steady_clock::now();
+    ceres::Solve(options, &problem_, summary);
+    PoseGraphStageReport stage;
+    stage.loop_loss = toString(loop_loss_type);
+    stage.iterations = static_cast<int>(summary->iterations.size()) - 1;
+    stage.build_time_s = std::chrono::duration<double>(solve_start - build_start).count();
+    stage.solver_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+    stage.preprocessor_time_s = summary->preprocessor_time_in_seconds;
+    stage.linear_solver_time_s = summary->linear_solver_time_in_seconds;
+    stage.jacobian_time_s = summary->residual_evaluation_time_in_seconds + summary->jacobian_evaluation_time_in_seconds;
+    stage.termination = summary->message;
+    return stage;
+  }
+
+ private:
+  static ceres::Problem::Options problemOptions() {
+    ceres::Problem::Options options;
+    options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    return options;
+  }
+
+  bool isFree(PoseGraphNodeId i) const { return i >= first_free_; }
+
+  void addNodeBlocks(PoseGraphNodeId i) {
+    if (problem_.HasParameterBlock(sol_.p_w_b[i].data())) return;
+    problem_.AddParameterBlock(sol_.p_w_b[i].data(), 3);
+    problem_.AddParameterBlock(&sol_.yaw_w_b[i], 1, &angle_manifold_);
+    if (!isFree(i)) {
+      problem_.SetParameterBlockConstant(sol_.p_w_b[i].data());
+      problem_.SetParameterBlockConstant(&sol_.yaw_w_b[i]);
+    }
+  }
+
+  void addRelative(PoseGraphNodeId i, PoseGraphNodeId j, const RelativePose4Dof& z, const Eigen::Vector4d& sqrt_info,
+                   ceres::LossFunction* loss) {
+    if (!isFree(i) && !isFree(j)) return;
+    addNodeBlocks(i);
+    addNodeBlocks(j);
+    problem_.AddResidualBlock(new RelativePose4DofFactor(z, sqrt_info), loss, sol_.p_w_b[i].data(), &sol_.yaw_w_b[i],
+                              sol_.p_w_b[j].data(), &sol_.yaw_w_b[j]);
+  }
+
+  void addFactors(ceres::LossFunction* loop_loss) {
+    for (const SequentialEdge& e : s_.sequential_edges)
+      addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
+    for (const LoopEdge& e : s_.loop_edges) addRelative(e.match, e.query, e.measurement, e.sqrt_information, loop_loss);
+    for (const YawMeasurement& m : s_.yaw_measurements) {
+      if (!isFree(m.node)) continue;
+      addNodeBlocks(m.node);
+      problem_.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s_.north_enu, s_.options.mag_yaw_sigma_rad), mag_loss_,
+                                &sol_.yaw_w_b[m.node]);
+    }
+    // Depth factors tie the free nodes' heights to the water surface, whose height is a state
+    // (initialised from the first depth when the snapshot has none).
+    if (!s_.depth_measurements.empty()) {
+      if (!sol_.surface_z) {
+        const DepthMeasurement& m = s_.depth_measurements.front();
+        sol_.surface_z = s_.nodes[m.node].p_w_b.z() + m.port_offset_z + m.depth_m;
+      }
+      for (const DepthMeasurement& m : s_.depth_measurements) {
+        if (!isFree(m.node)) continue;
+        addNodeBlocks(m.node);
+        problem_.AddResidualBlock(new PoseGraphDepthFactor(m.depth_m, m.port_offset_z, s_.options.depth_sigma_m),
+                                  nullptr, sol_.p_w_b[m.node].data(), &*sol_.surface_z);
+      }
+    }
+    // Gauge: relative edges fix nothing absolute. In a full solve node 0's position is held; its
+    // yaw too unless geomagnetic factors make yaw observable (then holding it would fight the
+    // magnetometer). In a partial solve the held nodes fix the gauge.
+    if (first_free_ == 0) {
+      if (problem_.HasParameterBlock(sol_.p_w_b[0].data())) problem_.SetParameterBlockConstant(sol_.p_w_b[0].data());
+      if (s_.yaw_measurements.empty() && problem_.HasParameterBlock(&sol_.yaw_w_b[0]))
+        problem_.SetParameterBlockConstant(&sol_.yaw_w_b[0]);
+    }
+  }
+
+  const PoseGraphSnapshot& s_;
+  const size_t first_free_;
+  ceres::LossFunction* mag_loss_;
+  PoseGraphSolution& sol_;
+  AngleManifold angle_manifold_;
+  ceres::Problem problem_;
+};
+
+}  // namespace
+
 PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
   PoseGraphSolution sol;
   const size_t n = s.nodes.size();
@@ -309,20 +435,8 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
   report.num_sequential_edges = s.sequential_edges.size();
   report.num_loop_edges = s.loop_edges.size();
   report.num_yaw_factors = s.yaw_measurements.size();
-  for (const SequentialEdge& e : s.sequential_edges)
-    if (e.from >= n || e.to >= n)
-      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
-  for (const LoopEdge& e : s.loop_edges)
-    if (e.match >= n || e.query >= n)
-      throw std::invalid_argument("PoseGraph4Dof::solve: edge refers to a node outside the snapshot");
-  for (const YawMeasurement& m : s.yaw_measurements)
-    if (m.node >= n)
-      throw std::invalid_argument("PoseGraph4Dof::solve: yaw factor refers to a node outside the snapshot");
-  for (const DepthMeasurement& m : s.depth_measurements)
-    if (m.node >= n)
-      throw std::invalid_argument("PoseGraph4Dof::solve: depth factor refers to a node outside the snapshot");
-  // Partial solve: nodes before first_free_node are held, and factors between held nodes only
-  // are left out (they cannot change anything).
+  checkSnapshotIndices(s);
+  // Partial solve: nodes before first_free_node are held.
   const size_t first_free = std::min(s.first_free_node, n);
   report.num_free_nodes = n - first_free;
   if (report.num_free_nodes == 0 ||
@@ -330,88 +444,10 @@ PoseGraphSolution PoseGraph4Dof::solve(const PoseGraphSnapshot& s) {
     report.message = "nothing to optimise";
     return sol;
   }
-  auto isFree = [&](PoseGraphNodeId i) { return i >= first_free; };
-
-  // One Ceres solve over the solution arrays (warm-started from their current values) with the
-  // given loop loss. The problem borrows the manifold and the losses (shared by many residual
-  // blocks) and owns the cost functions.
-  AngleManifold angle_manifold;
   const std::unique_ptr<ceres::LossFunction> mag_loss = makeLoss(s.options.mag_loss, s.options.mag_loss_scale);
   auto runSolver = [&](ceres::LossFunction* loop_loss, RobustLoss loop_loss_type, ceres::Solver::Summary* summary) {
-    const auto build_start = std::chrono::steady_clock::now();
-    ceres::Problem::Options problem_options;
-    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    auto addNodeBlocks = [&](PoseGraphNodeId i) {
-      if (problem.HasParameterBlock(sol.p_w_b[i].data())) return;
-      problem.AddParameterBlock(sol.p_w_b[i].data(), 3);
-      problem.AddParameterBlock(&sol.yaw_w_b[i], 1, &angle_manifold);
-      if (!isFree(i)) {
-        problem.SetParameterBlockConstant(sol.p_w_b[i].data());
-        problem.SetParameterBlockConstant(&sol.yaw_w_b[i]);
-      }
-    };
-    auto addRelative = [&](PoseGraphNodeId i, PoseGraphNodeId j, const RelativePose4Dof& z,
-                           const Eigen::Vector4d& sqrt_info, ceres::LossFunction* loss) {
-      if (!isFree(i) && !isFree(j)) return;
-      addNodeBlocks(i);
-      addNodeBlocks(j);
-      problem.AddResidualBlock(new RelativePose4DofFactor(z, sqrt_info), loss, sol.p_w_b[i].data(), &sol.yaw_w_b[i],
-                               sol.p_w_b[j].data(), &sol.yaw_w_b[j]);
-    };
-    for (const SequentialEdge& e : s.sequential_edges)
-      addRelative(e.from, e.to, e.measurement, e.sqrt_information, nullptr);
-    for (const LoopEdge& e : s.loop_edges) addRelative(e.match, e.query, e.measurement, e.sqrt_information, loop_loss);
-    for (const YawMeasurement& m : s.yaw_measurements) {
-      if (!isFree(m.node)) continue;
-      addNodeBlocks(m.node);
-      problem.AddResidualBlock(new GeomagneticYawFactor(m.u_l, s.north_enu, s.options.mag_yaw_sigma_rad),
-                               mag_loss.get(), &sol.yaw_w_b[m.node]);
-    }
-    // Depth factors tie the free nodes' heights to the water surface, whose height is a state
-    // (initialised from the first depth when the snapshot has none).
-    if (!s.depth_measurements.empty()) {
-      if (!sol.surface_z) {
-        const DepthMeasurement& m = s.depth_measurements.front();
-        sol.surface_z = s.nodes[m.node].p_w_b.z() + m.port_offset_z + m.depth_m;
-      }
-      for (const DepthMeasurement& m : s.depth_measurements) {
-        if (!isFree(m.node)) continue;
-        addNodeBlocks(m.node);
-        problem.AddResidualBlock(new PoseGraphDepthFactor(m.depth_m, m.port_offset_z, s.options.depth_sigma_m), nullptr,
-                                 sol.p_w_b[m.node].data(), &*sol.surface_z);
-      }
-    }
-    // Gauge: relative edges fix nothing absolute. In a full solve node 0's position is held; its
-    // yaw too unless geomagnetic factors make yaw observable (then holding it would fight the
-    // magnetometer). In a partial solve the held nodes fix the gauge.
-    if (first_free == 0) {
-      if (problem.HasParameterBlock(sol.p_w_b[0].data())) problem.SetParameterBlockConstant(sol.p_w_b[0].data());
-      if (s.yaw_measurements.empty() && problem.HasParameterBlock(&sol.yaw_w_b[0]))
-        problem.SetParameterBlockConstant(&sol.yaw_w_b[0]);
-    }
-
-    ceres::Solver::Options options;
-    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    options.max_num_iterations = s.options.max_iterations;
-    options.function_tolerance = s.options.function_tolerance;
-    if (s.options.max_solver_time_s > 0.0) options.max_solver_time_in_seconds = s.options.max_solver_time_s;
-    options.num_threads = s.options.num_threads;
-    options.logging_type = ceres::SILENT;
-    options.minimizer_progress_to_stdout = false;
-    const auto solve_start = std::chrono::steady_clock::now();
-    ceres::Solve(options, &problem, summary);
-    PoseGraphStageReport stage;
-    stage.loop_loss = toString(loop_loss_type);
-    stage.iterations = static_cast<int>(summary->iterations.size()) - 1;
-    stage.build_time_s = std::chrono::duration<double>(solve_start - build_start).count();
-    stage.solver_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
-    stage.preprocessor_time_s = summary->preprocessor_time_in_seconds;
-    stage.linear_solver_time_s = summary->linear_solver_time_in_seconds;
-    stage.jacobian_time_s = summary->residual_evaluation_time_in_seconds + summary->jacobian_evaluation_time_in_seconds;
-    stage.termination = summary->message;
-    report.stages.push_back(stage);
+    SolveStage stage(s, first_free, mag_loss.get(), &sol);
+    report.stages.push_back(stage.run(loop_loss, loop_loss_type, summary));
   };
 
   report.yaw_gauge_fixed = s.yaw_measurements.empty() && first_free == 0;

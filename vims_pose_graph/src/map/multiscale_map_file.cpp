@@ -321,9 +321,11 @@ void MultiScaleMap::load(const std::string& path) {
   deserialize(bytes, path);
 }
 
-void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::string& source) {
-  if (!nodes_.empty() || !sessions_.empty())
-    throw std::logic_error("MultiScaleMap::deserialize: the map must be empty (load before feeding keyframes)");
+namespace {
+
+/// Checks the file's magic, version, sizes and checksum; returns the payload's end (the
+/// checksum's offset + 8). Throws MapFileError naming `source`.
+uint64_t checkedFileSize(const std::vector<uint8_t>& bytes, const std::string& source) {
   auto fail = [&](const std::string& what) -> MapFileError {
     return MapFileError("map file '" + source + "': " + what);
   };
@@ -331,9 +333,9 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   if (std::memcmp(bytes.data(), kMagic, 8) != 0) throw fail("not a VIMS map (bad magic)");
   uint32_t version = 0;
   for (int i = 0; i < 4; ++i) version |= static_cast<uint32_t>(bytes[8 + static_cast<size_t>(i)]) << (8 * i);
-  if (version != kFileVersion)
-    throw fail("unsupported version " + std::to_string(version) + " (this build reads " + std::to_string(kFileVersion) +
-               ")");
+  if (version != MultiScaleMap::kFileVersion)
+    throw fail("unsupported version " + std::to_string(version) + " (this build reads " +
+               std::to_string(MultiScaleMap::kFileVersion) + ")");
   uint64_t payload = 0;
   for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(bytes[12 + static_cast<size_t>(i)]) << (8 * i);
   const uint64_t expected = kHeaderBytes + payload + 8;
@@ -346,6 +348,102 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     stored_checksum |= static_cast<uint64_t>(bytes[expected - 8 + static_cast<size_t>(i)]) << (8 * i);
   if (fnv1a64(bytes.data(), expected - 8) != stored_checksum) throw fail("checksum mismatch (file corrupt)");
 
+  return expected;
+}
+
+/// A keyframe's keypoints, their descriptors and its BoW vector.
+VisualSubmap readVisualSubmap(ByteReader& r, size_t num_words) {
+  VisualSubmap v;
+  const uint32_t num_keypoints = r.count(6 * 4 + 16 + kDescriptorBytes, "keypoints");
+  v.keypoints.reserve(num_keypoints);
+  for (uint32_t k = 0; k < num_keypoints; ++k) {
+    cv::KeyPoint kp;
+    kp.pt.x = r.f32();
+    kp.pt.y = r.f32();
+    kp.size = r.f32();
+    kp.angle = r.f32();
+    kp.response = r.f32();
+    kp.octave = r.i32();
+    const double nx = r.finite("keypoint coordinate");
+    const double ny = r.finite("keypoint coordinate");
+    if (!std::isfinite(kp.pt.x) || !std::isfinite(kp.pt.y) || kp.octave < 0 || kp.octave > 64)
+      r.fail("corrupt: invalid keypoint");
+    v.keypoints.push_back(kp);
+    v.normalized.emplace_back(nx, ny);
+    v.descriptors.push_back(BinaryDescriptor::fromBytes(r.take(kDescriptorBytes)));
+  }
+  const uint32_t num_entries = r.count(12, "BoW entries");
+  for (uint32_t k = 0; k < num_entries; ++k) {
+    BowEntry e;
+    e.word = r.u32();
+    e.weight = r.finite("BoW weight");
+    if (e.word >= num_words || !(e.weight > 0.0)) r.fail("corrupt: BoW entry outside the vocabulary");
+    if (!v.bow.entries.empty() && e.word <= v.bow.entries.back().word) r.fail("corrupt: BoW entries not sorted");
+    v.bow.entries.push_back(e);
+  }
+  return v;
+}
+
+SequentialEdge readSequentialEdge(ByteReader& r, uint32_t num_nodes) {
+  SequentialEdge e;
+  e.from = r.u32();
+  e.to = r.u32();
+  if (e.from >= num_nodes || e.to >= num_nodes || e.from == e.to) r.fail("corrupt: sequential edge node out of range");
+  e.measurement.p_li_j = r.vec("sequential edge");
+  e.measurement.yaw_i_j = r.finite("sequential edge");
+  for (int k = 0; k < 4; ++k) e.sqrt_information[k] = r.finite("sequential edge information");
+  if ((e.sqrt_information.array() <= 0.0).any()) r.fail("corrupt: non-positive edge information");
+  return e;
+}
+
+LoopEdge readLoopEdge(ByteReader& r, uint32_t num_nodes) {
+  LoopEdge e;
+  e.id = r.u32();
+  e.match = r.u32();
+  e.query = r.u32();
+  if (e.match >= num_nodes || e.query >= num_nodes || e.match == e.query)
+    r.fail("corrupt: loop edge node out of range");
+  e.T_match_query = r.pose("loop edge");
+  e.measurement.p_li_j = r.vec("loop edge");
+  e.measurement.yaw_i_j = r.finite("loop edge");
+  for (int k = 0; k < 4; ++k) e.sqrt_information[k] = r.finite("loop edge information");
+  if ((e.sqrt_information.array() <= 0.0).any()) r.fail("corrupt: non-positive edge information");
+  e.enabled = r.u8() != 0;
+  return e;
+}
+
+YawMeasurement readYawMeasurement(ByteReader& r, uint32_t num_nodes) {
+  YawMeasurement y;
+  y.node = r.u32();
+  if (y.node >= num_nodes) r.fail("corrupt: yaw factor node out of range");
+  y.u_l.x() = r.finite("yaw factor");
+  y.u_l.y() = r.finite("yaw factor");
+  y.heading_rad = r.finite("yaw factor");
+  if (std::abs(y.u_l.norm() - 1.0) > 1e-6) r.fail("corrupt: yaw factor direction is not a unit vector");
+  return y;
+}
+
+MagneticSubmapDraft readMagneticSubmap(ByteReader& r, uint32_t num_nodes) {
+  MagneticSubmapDraft d;
+  d.tied_node = r.u32();
+  if (d.tied_node >= num_nodes) r.fail("corrupt: magnetic submap keyframe out of range");
+  d.t = r.finite("magnetic submap");
+  d.signature_enu = r.vec("magnetic submap signature");
+  d.radius_m = r.finite("magnetic submap radius");
+  if (!(d.radius_m >= 0.0)) r.fail("corrupt: negative magnetic submap radius");
+  d.num_members = r.u32();
+  return d;
+}
+
+}  // namespace
+
+void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::string& source) {
+  if (!nodes_.empty() || !sessions_.empty())
+    throw std::logic_error("MultiScaleMap::deserialize: the map must be empty (load before feeding keyframes)");
+  auto fail = [&](const std::string& what) -> MapFileError {
+    return MapFileError("map file '" + source + "': " + what);
+  };
+  const uint64_t expected = checkedFileSize(bytes, source);
   ByteReader r(bytes, kHeaderBytes, static_cast<size_t>(expected - 8), source);
   const std::string descriptor_type = r.str(64);
   const std::string vocabulary_path = r.str(4096);
@@ -382,89 +480,28 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     const Eigen::Vector3d p_w_b = r.vec("keyframe world position");
     const double yaw_w_b = r.finite("keyframe world yaw");
     const bool coverage = r.u8() != 0;
-    VisualSubmap v;
-    const uint32_t num_keypoints = r.count(6 * 4 + 16 + kDescriptorBytes, "keypoints");
-    v.keypoints.reserve(num_keypoints);
-    for (uint32_t k = 0; k < num_keypoints; ++k) {
-      cv::KeyPoint kp;
-      kp.pt.x = r.f32();
-      kp.pt.y = r.f32();
-      kp.size = r.f32();
-      kp.angle = r.f32();
-      kp.response = r.f32();
-      kp.octave = r.i32();
-      const double nx = r.finite("keypoint coordinate");
-      const double ny = r.finite("keypoint coordinate");
-      if (!std::isfinite(kp.pt.x) || !std::isfinite(kp.pt.y) || kp.octave < 0 || kp.octave > 64)
-        r.fail("corrupt: invalid keypoint");
-      v.keypoints.push_back(kp);
-      v.normalized.emplace_back(nx, ny);
-      v.descriptors.push_back(BinaryDescriptor::fromBytes(r.take(kDescriptorBytes)));
-    }
-    const uint32_t num_entries = r.count(12, "BoW entries");
-    for (uint32_t k = 0; k < num_entries; ++k) {
-      BowEntry e;
-      e.word = r.u32();
-      e.weight = r.finite("BoW weight");
-      if (e.word >= num_words || !(e.weight > 0.0)) r.fail("corrupt: BoW entry outside the vocabulary");
-      if (!v.bow.entries.empty() && e.word <= v.bow.entries.back().word) r.fail("corrupt: BoW entries not sorted");
-      v.bow.entries.push_back(e);
-    }
+    VisualSubmap v = readVisualSubmap(r, num_words);
     m.addNode(t, session, T_odom_b, p_w_b, yaw_w_b, std::move(v), coverage);
   }
   const uint32_t num_sequential = r.count(8 + 32 + 32, "sequential edges");
   for (uint32_t i = 0; i < num_sequential; ++i) {
-    SequentialEdge e;
-    e.from = r.u32();
-    e.to = r.u32();
-    if (e.from >= num_nodes || e.to >= num_nodes || e.from == e.to)
-      r.fail("corrupt: sequential edge node out of range");
-    e.measurement.p_li_j = r.vec("sequential edge");
-    e.measurement.yaw_i_j = r.finite("sequential edge");
-    for (int k = 0; k < 4; ++k) e.sqrt_information[k] = r.finite("sequential edge information");
-    if ((e.sqrt_information.array() <= 0.0).any()) r.fail("corrupt: non-positive edge information");
-    m.sequential_edges_.push_back(e);
+    m.sequential_edges_.push_back(readSequentialEdge(r, num_nodes));
   }
   const uint32_t num_loops = r.count(12 + 96 + 32 + 32 + 1, "loop edges");
   for (uint32_t i = 0; i < num_loops; ++i) {
-    LoopEdge e;
-    e.id = r.u32();
-    e.match = r.u32();
-    e.query = r.u32();
-    if (e.match >= num_nodes || e.query >= num_nodes || e.match == e.query)
-      r.fail("corrupt: loop edge node out of range");
-    e.T_match_query = r.pose("loop edge");
-    e.measurement.p_li_j = r.vec("loop edge");
-    e.measurement.yaw_i_j = r.finite("loop edge");
-    for (int k = 0; k < 4; ++k) e.sqrt_information[k] = r.finite("loop edge information");
-    if ((e.sqrt_information.array() <= 0.0).any()) r.fail("corrupt: non-positive edge information");
-    e.enabled = r.u8() != 0;
+    const LoopEdge e = readLoopEdge(r, num_nodes);
     m.loop_edges_.push_back(e);
     m.next_loop_id_ = std::max(m.next_loop_id_, e.id + 1);
   }
   const uint32_t num_yaw = r.count(4 + 24, "yaw factors");
   for (uint32_t i = 0; i < num_yaw; ++i) {
-    YawMeasurement y;
-    y.node = r.u32();
-    if (y.node >= num_nodes) r.fail("corrupt: yaw factor node out of range");
-    y.u_l.x() = r.finite("yaw factor");
-    y.u_l.y() = r.finite("yaw factor");
-    y.heading_rad = r.finite("yaw factor");
-    if (std::abs(y.u_l.norm() - 1.0) > 1e-6) r.fail("corrupt: yaw factor direction is not a unit vector");
+    const YawMeasurement y = readYawMeasurement(r, num_nodes);
     m.yaw_measurements_.push_back(y);
     ++m.session_yaw_count_[m.nodes_[y.node].session];
   }
   const uint32_t num_magnetic = r.count(4 + 8 + 24 + 8 + 4, "magnetic submaps");
   for (uint32_t i = 0; i < num_magnetic; ++i) {
-    MagneticSubmapDraft d;
-    d.tied_node = r.u32();
-    if (d.tied_node >= num_nodes) r.fail("corrupt: magnetic submap keyframe out of range");
-    d.t = r.finite("magnetic submap");
-    d.signature_enu = r.vec("magnetic submap signature");
-    d.radius_m = r.finite("magnetic submap radius");
-    if (!(d.radius_m >= 0.0)) r.fail("corrupt: negative magnetic submap radius");
-    d.num_members = r.u32();
-    m.addMagneticSubmap(d);
+    m.addMagneticSubmap(readMagneticSubmap(r, num_nodes));
   }
   if (!r.atEnd()) r.fail("corrupt: trailing bytes in the payload");
   m.session_parent_ = parents;
