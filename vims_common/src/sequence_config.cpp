@@ -24,6 +24,21 @@ void collectUnknown(const ConfigReader& reader, const std::set<std::string>& all
   for (auto& k : reader.unknownKeys(allowed)) unknown_keys->push_back(k);
 }
 
+/// magnetometer.coil_frequency_hz (contract v2): a number, a list (several coils), or null / no
+/// key (an empty list: the front end finds the frequency from the data).
+std::vector<double> readCoilFrequencies(const ConfigReader& mag, double rate_hz) {
+  const std::string key = "coil_frequency_hz";
+  if (!mag.has(key)) return {};
+  const std::vector<double> list =
+      mag.node()[key].IsSequence() ? mag.getVector(key) : std::vector<double>{mag.get<double>(key)};
+  if (list.empty()) throw mag.error(key, "an empty list: give the frequencies, or null to find one from the data");
+  for (const double f : list) {
+    requirePositive(mag, key, f);
+    if (f >= 0.5 * rate_hz) throw mag.error(key, "must be below the Nyquist frequency (rate_hz / 2)");
+  }
+  return list;
+}
+
 std::string transformToYaml(const Eigen::Isometry3d& T) {
   std::ostringstream os;
   os << std::setprecision(12) << "[";
@@ -119,11 +134,9 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   requirePositive(mag, "rate_hz", cfg.magnetometer.rate_hz);
   cfg.magnetometer.noise_std = mag.get<double>("noise_std");
   requireNonNegative(mag, "noise_std", cfg.magnetometer.noise_std);
-  cfg.magnetometer.coil_frequency_hz = mag.get<double>("coil_frequency_hz");
-  requirePositive(mag, "coil_frequency_hz", cfg.magnetometer.coil_frequency_hz);
-  if (cfg.magnetometer.coil_frequency_hz >= 0.5 * cfg.magnetometer.rate_hz) {
-    throw mag.error("coil_frequency_hz", "must be below the Nyquist frequency (rate_hz / 2)");
-  }
+  cfg.magnetometer.coil_frequencies_hz = readCoilFrequencies(mag, cfg.magnetometer.rate_hz);
+  cfg.magnetometer.coil_frequency_hz =
+      cfg.magnetometer.coil_frequencies_hz.empty() ? 0.0 : cfg.magnetometer.coil_frequencies_hz.front();
   cfg.magnetometer.declination_deg = mag.get<double>("declination_deg", 0.0);
   requireInRange(mag, "declination_deg", cfg.magnetometer.declination_deg, -180.0, 180.0);
 
@@ -191,8 +204,17 @@ std::string SequenceConfig::toYaml() const {
      << "  T_b_m: " << transformToYaml(magnetometer.T_b_m) << "\n"
      << "  rate_hz: " << magnetometer.rate_hz << "\n"
      << "  noise_std: " << magnetometer.noise_std << "\n"
-     << "  coil_frequency_hz: " << magnetometer.coil_frequency_hz << "\n"
-     << "  declination_deg: " << magnetometer.declination_deg << "\n";
+     << "  coil_frequency_hz: ";
+  if (magnetometer.coil_frequencies_hz.size() > 1) {
+    for (std::size_t i = 0; i < magnetometer.coil_frequencies_hz.size(); ++i)
+      os << (i ? ", " : "[") << magnetometer.coil_frequencies_hz[i];
+    os << "]\n";
+  } else if (magnetometer.coilFrequencyKnown()) {
+    os << magnetometer.coil_frequency_hz << "\n";
+  } else {
+    os << "null  # found from the data\n";
+  }
+  os << "  declination_deg: " << magnetometer.declination_deg << "\n";
   if (pressure) {
     os << "pressure:\n"
        << "  T_b_p: " << transformToYaml(pressure->T_b_p) << "\n"

@@ -181,3 +181,37 @@ TEST(SequenceConfig, DistortionModelParsesRoundTripsAndRejectsOthers) {
             std::string::npos)
       << errorOf(bad);
 }
+
+TEST(SequenceConfig, CoilFrequencyMayBeAListNullOrAbsent) {
+  const std::string base = kContractExample;
+  auto coils = [](const std::string& yaml) {
+    return SequenceConfig::fromReader(ConfigReader::fromString(yaml)).magnetometer;
+  };
+  EXPECT_EQ(coils(base).coil_frequencies_hz, std::vector<double>{11.0});
+  // Several coils: the first is the one signatures are extracted at.
+  const auto two = coils(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: [17.0, 11.0]"));
+  EXPECT_DOUBLE_EQ(two.coil_frequency_hz, 17.0);
+  EXPECT_EQ(two.coil_frequencies_hz, (std::vector<double>{17.0, 11.0}));
+  // null or absent: found from the data.
+  for (const std::string& open : {replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: null"),
+                                  replace(base, "  coil_frequency_hz: 11.0\n", "")}) {
+    const auto m = coils(open);
+    EXPECT_FALSE(m.coilFrequencyKnown());
+    EXPECT_TRUE(m.coil_frequencies_hz.empty());
+  }
+  EXPECT_NE(errorOf(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: []")).find("coil_frequency_hz"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: [11.0, 700]"))
+                .find("coil_frequency_hz: must be below the Nyquist"),
+            std::string::npos);
+  // Each form survives save and load.
+  for (const std::string& form : {std::string("[17.0, 11.0]"), std::string("null")}) {
+    const auto cfg = SequenceConfig::fromReader(
+        ConfigReader::fromString(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: " + form)));
+    const std::string path = ::testing::TempDir() + "/vims_seq_coils.yaml";
+    cfg.save(path);
+    EXPECT_EQ(SequenceConfig::load(path).magnetometer.coil_frequencies_hz, cfg.magnetometer.coil_frequencies_hz)
+        << form;
+    std::remove(path.c_str());
+  }
+}

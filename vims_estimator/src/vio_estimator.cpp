@@ -257,12 +257,12 @@ void VioEstimator::processPendingFrames() {
     // The range at the frame's time may still be on its way (online it comes a node hop after
     // the image): wait for a range at or after the frame, or for the IMU to be sonar_wait_s past it.
     if (options_.use_sonar && options_.sonar_wait_s > 0.0 && (sonar_.empty() || sonar_.back().first < t_needed) &&
-        imu_.back().t < t_needed + options_.sonar_wait_s)
+        imu_.back().t < t_needed + rangeWaitS(sequence_.sonar.rate_hz))
       return;
     // The same for the pressure depth (its own topic online): the same wait, so a frame gets the
     // same interpolated depth live as offline.
     if (usePressure() && options_.sonar_wait_s > 0.0 && (pressure_.empty() || pressure_.back().first < t_needed) &&
-        imu_.back().t < t_needed + options_.sonar_wait_s)
+        imu_.back().t < t_needed + rangeWaitS(sequence_.pressure->rate_hz))
       return;
     auto [frame, image] = std::move(pending_.front());
     pending_.pop_front();
@@ -271,8 +271,16 @@ void VioEstimator::processPendingFrames() {
 }
 
 std::optional<double> VioEstimator::sonarRangeAt(double t) const {
-  return interpolateSeries(sonar_, t, options_.sonar_max_interpolation_gap_s);
+  return interpolateSeries(sonar_, t, sonarInterpolationGapS());
 }
+
+// The two options are in seconds, set for the contract's 10 Hz sonar; a slower one (the contract
+// allows 1 Hz) needs at least its own sample periods, read from the sequence YAML.
+double VioEstimator::sonarInterpolationGapS() const {
+  return std::max(options_.sonar_max_interpolation_gap_s, 2.5 / sequence_.sonar.rate_hz);
+}
+
+double VioEstimator::rangeWaitS(double rate_hz) const { return std::max(options_.sonar_wait_s, 1.5 / rate_hz); }
 
 std::optional<double> VioEstimator::pressureDepthAt(double t) const {
   if (!usePressure()) return std::nullopt;

@@ -283,7 +283,7 @@ void VioEstimator::fillMissingSonarRanges() {
       fallback << "visual-inertial only until it returns";
     logger_->warnThrottled(kComponent, "no_sonar", f.t_stamp, 10.0,
                            VIMS_STR("sonar gap: no filtered range within "
-                                    << options_.sonar_max_interpolation_gap_s << " s of the frame at t=" << std::fixed
+                                    << sonarInterpolationGapS() << " s of the frame at t=" << std::fixed
                                     << std::setprecision(3) << f.t_stamp << ": " << fallback.str()));
   }
 }

@@ -10,8 +10,8 @@
 #include "vims_common/sequence_paths.h"
 #include "vims_common/timing.h"
 #include "vims_common/trajectory_io.h"
+#include "vims_magnetometer/magnetic_front_end.h"
 #include "vims_magnetometer/signature_csv_writer.h"
-#include "vims_magnetometer/signature_extractor.h"
 #include "vims_ros/sequence_bag_reader.h"
 #include "vims_sim/sensor_models.h"
 #include "vims_sim/sim_truth.h"
@@ -153,7 +153,7 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
                              "' has no <seq>_truth.yaml: the coil position is needed to score signatures");
   }
   const sim::SimTruth truth = sim::SimTruth::load(seq.paths.truth);
-  SignatureExtractor extractor(options, seq.config.magnetometer, seq.config.imu.gravity, logger);
+  MagneticFrontEnd extractor(options, seq.config.magnetometer, seq.config.imu.gravity, logger);
   std::vector<SignatureWindow> signatures;
   SequenceBagReader reader(seq.paths.bag, seq.config);
   SequenceBagReader::Handlers handlers;

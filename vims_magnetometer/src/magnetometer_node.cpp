@@ -1,4 +1,5 @@
-// vims_magnetometer_node: a thin ROS wrapper around vims::SignatureExtractor.
+// vims_magnetometer_node: a thin ROS wrapper around vims::MagneticFrontEnd (the SignatureExtractor,
+// after a search for the coil frequency when the sequence leaves it open).
 //
 // Subscribes  <topics.mag of the sequence YAML> (sensor_msgs/MagneticField, default /mag/raw)
 //             <topics.imu of the sequence YAML> (sensor_msgs/Imu, default /imu0): the extractor's
@@ -23,7 +24,7 @@
 
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
-#include "vims_magnetometer/signature_extractor.h"
+#include "vims_magnetometer/magnetic_front_end.h"
 #include "vims_ros/conversions.h"
 #include "vims_ros/node_config.h"
 #include "vims_ros/ros_logger.h"
@@ -62,7 +63,7 @@ class MagnetometerNode {
   MagnetometerNode(ros::NodeHandle& nh, const vims::SequenceConfig& sequence, const vims::MagnetometerOptions& options,
                    const std::string& mag_topic, const std::string& imu_topic, std::string world_frame,
                    std::string body_frame)
-      : extractor_(options, sequence.magnetometer, sequence.imu.gravity, vims::rosLogger()),
+      : front_end_(options, sequence.magnetometer, sequence.imu.gravity, vims::rosLogger()),
         world_frame_(std::move(world_frame)),
         body_frame_(std::move(body_frame)) {
     signature_pub_ = nh.advertise<vims::MagneticSignature>("mag/signature", 20);
@@ -85,7 +86,7 @@ class MagnetometerNode {
       ROS_WARN_STREAM_THROTTLE(5.0, "IMU message rejected: " << why);
       return;
     }
-    extractor_.feedImu(sample);
+    front_end_.feedImu(sample);
   }
 
   void onMag(const sensor_msgs::MagneticField::ConstPtr& msg) {
@@ -98,7 +99,7 @@ class MagnetometerNode {
     }
     signatures_.clear();
     geomagnetic_.clear();
-    extractor_.feedMag(sample, &signatures_, &geomagnetic_);
+    front_end_.feedMag(sample, &signatures_, &geomagnetic_);
     // Nothing non-finite leaves the node: a geomagnetic sample with NaN/Inf (extreme input can
     // overflow the averages) is dropped; a signature's non-finite values become 0 and the window
     // is marked invalid (it carries no measurement then, as vims::toSignatureWindow reads it).
@@ -139,7 +140,7 @@ class MagnetometerNode {
     }
   }
 
-  vims::SignatureExtractor extractor_;
+  vims::MagneticFrontEnd front_end_;
   std::string world_frame_;
   std::string body_frame_;
   std::vector<vims::SignatureWindow> signatures_;

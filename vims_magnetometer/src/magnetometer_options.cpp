@@ -28,6 +28,17 @@ void AttitudeFilterOptions::validate(const ConfigReader& reader) const {
 
 std::string AttitudeFilterOptions::toYaml() const { return optionTable().toYaml(*this); }
 
+const OptionTable<CoilSearchOptions>& CoilSearchOptions::optionTable() {
+  using O = CoilSearchOptions;
+  static const auto table =
+      OptionTable<O>()
+          .number("window_s", &O::window_s, Bounds::closed(1.0, 120.0))
+          .number("min_frequency_hz", &O::min_frequency_hz, Bounds::closed(0.1, 1000.0))
+          .number("max_fraction_of_nyquist", &O::max_fraction_of_nyquist, Bounds::closed(0.1, 1.0))
+          .number("min_peak_to_median", &O::min_peak_to_median, Bounds::closed(2.0, 1e9));
+  return table;
+}
+
 const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
   using O = MagnetometerOptions;
   // snr_inner_bins >= 2: closer bins sit in the Hann main lobe and would measure the coil, not the noise.
@@ -42,6 +53,7 @@ const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
           .number("geomagnetic_output_period_s", &O::geomagnetic_output_period_s, Bounds::positive())
           .number("max_fill_gap_s", &O::max_fill_gap_s, Bounds::nonNegative())
           .section<AttitudeFilterOptions>("attitude", &O::attitude, AttitudeFilterOptions::optionTable())
+          .section<CoilSearchOptions>("coil_search", &O::coil_search, CoilSearchOptions::optionTable())
           .rule([](const O& o) {
             return violationIf(o.hop_s > o.window_s, "hop_s",
                                "must not exceed window_s (windows would leave samples out)");
@@ -63,6 +75,13 @@ void MagnetometerOptions::validate(const ConfigReader& reader) const {
 
 void MagnetometerOptions::validateFor(const MagnetometerCalibration& cal, const ConfigReader& reader) const {
   validate(reader);
+  if (!cal.coilFrequencyKnown()) {
+    // The frequency is found from the data; these checks run again on the frequency found.
+    if (coil_search.min_frequency_hz >= coil_search.max_fraction_of_nyquist * 0.5 * cal.rate_hz) {
+      throw reader.error("coil_search.min_frequency_hz", "leaves no band below the Nyquist frequency to search");
+    }
+    return;
+  }
   const double periods = window_s * cal.coil_frequency_hz;
   if (periods < 4.0) {
     throw reader.error("window_s", "holds only " + std::to_string(periods) +

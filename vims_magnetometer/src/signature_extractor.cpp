@@ -9,6 +9,14 @@ namespace {
 constexpr const char* kComponent = "mag_signature";
 /// An SNR with (numerically) no noise at all is reported as this instead of infinity.
 constexpr double kMaxSnr = 1e12;
+
+/// The extractor is built for one known frequency (MagneticFrontEnd finds an unknown one first).
+double knownCoilFrequency(const MagnetometerCalibration& calibration) {
+  if (!calibration.coilFrequencyKnown()) {
+    throw ConfigError("magnetometer: the signature extractor needs the coil frequency (MagneticFrontEnd finds it)");
+  }
+  return calibration.coil_frequency_hz;
+}
 }  // namespace
 
 MovingAverageLength chooseMovingAverage(double rate_hz, double coil_frequency_hz, int min_periods) {
@@ -34,7 +42,7 @@ SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const
       logger_(logger ? std::move(logger) : Logger::nullLogger()),
       attitude_(options.attitude, gravity, calibration.declination_deg * M_PI / 180.0,
                 // attitudeAt() must reach back to the centre of the moving average, plus margin.
-                0.5 * options.geomagnetic_min_periods * 4.0 / calibration.coil_frequency_hz + 1.0, logger_) {
+                0.5 * options.geomagnetic_min_periods * 4.0 / knownCoilFrequency(calibration) + 1.0, logger_) {
   options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
   moving_average_ =
       chooseMovingAverage(calibration_.rate_hz, calibration_.coil_frequency_hz, options_.geomagnetic_min_periods);

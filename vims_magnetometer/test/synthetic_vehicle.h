@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "vims_common/magnetic_signature.h"
 #include "vims_common/sensor_data.h"
 
 namespace vims_test {
@@ -124,6 +125,21 @@ void replay(const Streams& s, ImuFn on_imu, MagFn on_mag) {
       on_mag(s.mag[m++]);
     }
   }
+}
+
+/// What a magnetometer front end (SignatureExtractor or MagneticFrontEnd) outputs for a stream.
+struct Outputs {
+  std::vector<vims::SignatureWindow> signatures;
+  std::vector<vims::GeomagneticSample> geomagnetic;
+};
+
+template <typename FrontEnd>
+Outputs run(FrontEnd& front_end, const Streams& streams) {
+  Outputs out;
+  replay(
+      streams, [&](const vims::ImuSample& s) { front_end.feedImu(s); },
+      [&](const vims::MagSample& s) { front_end.feedMag(s, &out.signatures, &out.geomagnetic); });
+  return out;
 }
 
 }  // namespace vims_test

@@ -35,18 +35,8 @@ double angleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a.conjugate() * b).angle() * 180.0 / M_PI;
 }
 
-struct Outputs {
-  std::vector<SignatureWindow> signatures;
-  std::vector<GeomagneticSample> geomagnetic;
-};
-
-Outputs run(SignatureExtractor& extractor, const Streams& streams) {
-  Outputs out;
-  vims_test::replay(
-      streams, [&](const ImuSample& s) { extractor.feedImu(s); },
-      [&](const MagSample& s) { extractor.feedMag(s, &out.signatures, &out.geomagnetic); });
-  return out;
-}
+using vims_test::Outputs;
+using vims_test::run;
 
 double relativeError(const SignatureWindow& sig, const World& world, const vims_test::Motion& motion, double t0) {
   const Eigen::Vector3d truth = canonicalSignature(world.coilPeak(motion.p_w_b(sig.t - t0)));

@@ -140,8 +140,8 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   }
   const fs::path out(options_.out_dir);
   sonar_filter_ = std::make_unique<SonarAltitudeFilter>(config_.sonar, sequence_.sonar, logger_);
-  signature_extractor_ = std::make_unique<SignatureExtractor>(config_.magnetometer, sequence_.magnetometer,
-                                                              sequence_.imu.gravity, logger_);
+  magnetic_front_end_ =
+      std::make_unique<MagneticFrontEnd>(config_.magnetometer, sequence_.magnetometer, sequence_.imu.gravity, logger_);
   sonar_csv_ = std::make_unique<SonarCsvWriter>((out / "sonar_filtered.csv").string());
   signature_csv_ = std::make_unique<SignatureCsvWriter>((out / "mag_signatures.csv").string());
   if (options_.threads != 1 && options_.threads != 2) {
@@ -199,7 +199,7 @@ void OfflinePipeline::timePoseGraph(bool is_keyframe, Call&& call) {
 }
 
 void OfflinePipeline::onImu(const ImuSample& sample) {
-  signature_extractor_->feedImu(sample);
+  magnetic_front_end_->feedImu(sample);
   const double cpu_start = threadCpuSeconds();
   vio_->feedImu(sample);
   backend_cpu_s_ += threadCpuSeconds() - cpu_start;
@@ -278,7 +278,7 @@ void OfflinePipeline::onMag(const MagSample& sample) {
   signature_windows_.clear();
   geomagnetic_samples_.clear();
   const Clock::time_point start = Clock::now();
-  signature_extractor_->feedMag(sample, &signature_windows_, &geomagnetic_samples_);
+  magnetic_front_end_->feedMag(sample, &signature_windows_, &geomagnetic_samples_);
   magnetometer_ms_.add(millisecondsSince(start));
   for (const auto& window : signature_windows_) {
     signature_csv_->write(window);
@@ -386,7 +386,8 @@ OfflineSummary OfflinePipeline::run() {
   summary.vio_td_s = vio_->estimator().td();
   signature_csv_->flush();
   summary.sonar = sonar_filter_->stats();
-  summary.magnetometer = signature_extractor_->stats();
+  summary.magnetometer = magnetic_front_end_->stats();
+  summary.coil_frequency_hz = magnetic_front_end_->coilFrequency();
   summary.wall_time_s = wall_seconds();
   summary.sequence_duration_s = span;
   summary.real_time_factor = summary.wall_time_s > 0 ? span / summary.wall_time_s : 0.0;
@@ -426,7 +427,8 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", warming_up: " << s.sonar.warming_up << ", resets: " << s.sonar.resets << "}\n";
   out << "magnetometer: {samples: " << s.magnetometer.mag_samples << ", windows: " << s.magnetometer.windows
       << ", valid_windows: " << s.magnetometer.valid_windows << ", resets: " << s.magnetometer.resets
-      << ", nonfinite: " << s.magnetometer.nonfinite << ", duplicates: " << s.magnetometer.duplicates << "}\n";
+      << ", nonfinite: " << s.magnetometer.nonfinite << ", duplicates: " << s.magnetometer.duplicates
+      << ", coil_frequency_hz: " << s.coil_frequency_hz << "}\n";
   out << "mode: " << options_.mode << (options_.vio_only ? "\nvio_only: true" : "") << "\n";
   out << "vio: {frames: " << s.vio_frames << ", keyframes: " << s.vio_keyframes << ", resets: " << s.vio_resets
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";

@@ -21,8 +21,8 @@
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
+#include "vims_magnetometer/magnetic_front_end.h"
 #include "vims_magnetometer/signature_csv_writer.h"
-#include "vims_magnetometer/signature_extractor.h"
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 #include "vims_ros/sequence_bag_reader.h"
@@ -64,10 +64,11 @@ struct OfflineSummary {
   std::map<std::string, TopicStats> topics;
   SonarFilterStats sonar;
   SignatureExtractorStats magnetometer;
+  double coil_frequency_hz = 0.0;  ///< in use at the end: the sequence's or the one found (0: none found)
   /// Per-frame wall-clock latency [ms]: front end (tracker) and back end (estimator).
   double frontend_ms_p50 = 0.0, frontend_ms_p99 = 0.0;
   double backend_ms_p50 = 0.0, backend_ms_p99 = 0.0;
-  /// Per-call wall-clock latency [ms] of the other stages: magnetometer (SignatureExtractor::feedMag
+  /// Per-call wall-clock latency [ms] of the other stages: magnetometer (MagneticFrontEnd::feedMag
   /// per 1 kHz sample), place recognition (PoseGraphManager::feedKeyframe calls without their
   /// graph solves: describe, detect, verify), pose-graph optimisation (per solve,
   /// PoseGraphManager::timings) and loop correction (per accepted loop: from its acceptance to
@@ -141,7 +142,7 @@ class OfflinePipeline {
 
   // Sensor front-ends (the same cores vims_sonar_filter_node and vims_magnetometer_node wrap).
   std::unique_ptr<SonarAltitudeFilter> sonar_filter_;
-  std::unique_ptr<SignatureExtractor> signature_extractor_;
+  std::unique_ptr<MagneticFrontEnd> magnetic_front_end_;
   std::unique_ptr<SonarCsvWriter> sonar_csv_;
   std::unique_ptr<SignatureCsvWriter> signature_csv_;
   std::vector<SonarFilterResult> sonar_results_;  // reused buffers: no allocation per message

@@ -147,6 +147,14 @@ void SimOptions::validate() const {
   requireInRange("--terrain-rock-density", terrain.rock_density, 0.0, 0.1, "per m^2");
   requireInRange("--depth-hold", depth_hold_z, 1.0, 100.0, "m");
   requireInRange("--sonar-max-range", sonar_max_range, 1.0, 100.0, "m");
+  requireInRange("--camera-rate-hz", rates.camera, 5.0, 30.0, "Hz");
+  requireInRange("--imu-rate-hz", rates.imu, 100.0, 1000.0, "Hz");
+  requireInRange("--sonar-rate-hz", rates.sonar, 1.0, 20.0, "Hz");
+  requireInRange("--mag-rate-hz", rates.magnetometer, 200.0, 2000.0, "Hz");
+  requireInRange("--coil-frequency", coil_frequency_hz, 2.0, 200.0, "Hz");
+  if (coil_frequency_hz >= 0.45 * rates.magnetometer) {
+    throw argError("--coil-frequency", "must be below 0.45 x the magnetometer's rate (--mag-rate-hz)");
+  }
 
   requireInRange("--pressure-rate-hz", pressure.rate_hz, 1.0, 50.0, "Hz");
   requireInRange("--pressure-atmospheric-error-pa", pressure.atmospheric_error_pa, -2.0e4, 2.0e4, "Pa");
@@ -173,6 +181,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     }
     if (flag == "--pressure") {
       options.pressure.enabled = true;
+      continue;
+    }
+    if (flag == "--coil-frequency-unknown") {
+      options.coil_frequency_unknown = true;
       continue;
     }
     if (flag == "--altitude-hold") {
@@ -252,6 +264,16 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.pressure.atmospheric_error_pa = parseDouble(flag, value);
     } else if (flag == "--pressure-spikes") {
       options.pressure.spike_fraction = parseDouble(flag, value);
+    } else if (flag == "--coil-frequency") {
+      options.coil_frequency_hz = parseDouble(flag, value);
+    } else if (flag == "--camera-rate-hz") {
+      options.rates.camera = parseDouble(flag, value);
+    } else if (flag == "--imu-rate-hz") {
+      options.rates.imu = parseDouble(flag, value);
+    } else if (flag == "--sonar-rate-hz") {
+      options.rates.sonar = parseDouble(flag, value);
+    } else if (flag == "--mag-rate-hz") {
+      options.rates.magnetometer = parseDouble(flag, value);
     } else if (flag == "--start-time") {
       options.start_time = parseDouble(flag, value);
     } else if (flag == "--distortion-model") {
@@ -305,6 +327,13 @@ Options:
                            gives no echo (+inf), as over a drop-off
   --imu-gap A:B            no IMU messages in [A, B) (repeatable)
   --pressure-off A:B       no pressure messages in [A, B) (repeatable; needs --pressure)
+  --coil-frequency HZ      the seabed coil's frequency, 2-200 Hz (default 11, the paper's)
+  --coil-frequency-unknown the sequence YAML says coil_frequency_hz: null (contract v2: VIMS finds
+                           it from the data); the truth file keeps it
+  --camera-rate-hz HZ      image rate, 5-30 (default 10)
+  --imu-rate-hz HZ         IMU rate, 100-1000 (default 200; the noise densities stay the same)
+  --sonar-rate-hz HZ       sonar rate, 1-20 (default 10)
+  --mag-rate-hz HZ         magnetometer rate, 200-2000 (default 1000)
   --start-time T           bag-clock time of the sequence start (default 1700000000.0)
   --lz4                    write lz4-compressed bag chunks
   --distortion-model M     radtan (default: pinhole, 60 deg across) or equidistant (fisheye behind

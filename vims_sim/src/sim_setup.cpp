@@ -147,9 +147,12 @@ SimSetup buildSimSetup(const SimOptions& options) {
   setup.terrain = std::make_shared<const SeabedTerrain>(trajectory_params.terrain);
 
   setup.imu = ImuNoiseParams::mti630();
+  setup.imu.rate_hz = options.rates.imu;
   setup.sonar = SonarParams();
+  setup.sonar.rate_hz = options.rates.sonar;
   if (options.sonar_max_range) setup.sonar.max_range = *options.sonar_max_range;
   setup.magnetometer = MagnetometerParams();
+  setup.magnetometer.rate_hz = options.rates.magnetometer;
 
   // --- The rig: calibrated once per vehicle set-up, so it follows the trajectory seed.
   Rng rig(deriveSeed(options.seed, kStreamRig));
@@ -172,7 +175,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
     cfg.camera.distortion = {rig.uniform(-0.03, -0.01), rig.uniform(0.0, 0.01), rig.uniform(-0.003, 0.0),
                              rig.uniform(0.0, 0.001)};
   }
-  cfg.camera.rate_hz = 10.0;
+  cfg.camera.rate_hz = options.rates.camera;
   if (options.image_format != "raw") cfg.topics.image += "/compressed";  // image_transport's name
   // Camera looking down, image "up" towards the bow: x_c = -y_b (starboard), y_c = -x_b, z_c = -z_b.
   Eigen::Matrix3d R_b_c_nominal;
@@ -221,7 +224,11 @@ SimSetup buildSimSetup(const SimOptions& options) {
   if (!setup.terrain->isFlat()) {
     site.coil.position_w.z() = setup.terrain->height(site.coil.position_w.x(), site.coil.position_w.y());
   }
-  cfg.magnetometer.coil_frequency_hz = site.coil.frequency;
+  site.coil.frequency = options.coil_frequency_hz;
+  // The truth file keeps the frequency; the sequence YAML may leave it for VIMS to find (null).
+  cfg.magnetometer.coil_frequency_hz = options.coil_frequency_unknown ? 0.0 : site.coil.frequency;
+  cfg.magnetometer.coil_frequencies_hz.clear();
+  if (!options.coil_frequency_unknown) cfg.magnetometer.coil_frequencies_hz.push_back(site.coil.frequency);
   cfg.magnetometer.declination_deg = site.geomagnetic.declination_deg;
 
   // --- The truth.

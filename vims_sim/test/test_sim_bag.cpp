@@ -391,3 +391,27 @@ TEST(SimulatorDeterminism, DefaultFlatSequenceIsUnchanged) {
   EXPECT_EQ(fileHash(paths.truth), 0xe53c5829849fa59bULL);
   fs::remove_all(options.out_dir);
 }
+
+// Other rates (the contract's ranges): the YAML states them and the bag follows them, so VIMS can
+// be run on rigs other than the default one.
+TEST(SimulatorRates, OtherRatesAreStatedAndFollowed) {
+  SimOptions options = baseOptions("rates", 3.0, 5);
+  options.static_start = 1.0;
+  options.rates.camera = 20.0;
+  options.rates.imu = 400.0;
+  options.rates.sonar = 5.0;
+  options.rates.magnetometer = 500.0;
+  generate(options);
+  const auto paths = vims::SequencePaths::resolve(options.out_dir);
+  const vims::SequenceConfig config = vims::SequenceConfig::load(paths.yaml);
+  EXPECT_DOUBLE_EQ(config.camera.rate_hz, 20.0);
+  EXPECT_DOUBLE_EQ(config.imu.rate_hz, 400.0);
+  EXPECT_DOUBLE_EQ(config.sonar.rate_hz, 5.0);
+  EXPECT_DOUBLE_EQ(config.magnetometer.rate_hz, 500.0);
+  const auto messages = serialisedMessages(paths.bag);
+  EXPECT_NEAR(static_cast<double>(messages.at("/cam0/image_raw").size()), 60.0, 1.0);
+  EXPECT_NEAR(static_cast<double>(messages.at("/imu0").size()), 1200.0, 1.0);
+  EXPECT_NEAR(static_cast<double>(messages.at("/sonar/range").size()), 15.0, 1.0);
+  EXPECT_NEAR(static_cast<double>(messages.at("/mag/raw").size()), 1500.0, 1.0);
+  fs::remove_all(options.out_dir);
+}

@@ -17,8 +17,16 @@ SonarAltitudeFilter::SonarAltitudeFilter(const SonarFilterOptions& options, cons
       sigma_(std::max(calibration.range_noise_std, options.min_noise_std_m)),
       min_range_(calibration.min_range),
       max_range_(calibration.max_range),
+      max_gap_s_(calibration.rate_hz > 0.0
+                     ? std::max(options.max_gap_s, (options.acquire_samples + 1) / calibration.rate_hz)
+                     : options.max_gap_s),
       logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   options_.validate(ConfigReader::fromString("", "sonar filter options"));
+  if (max_gap_s_ > options_.max_gap_s) {
+    logger_->info(kComponent,
+                  VIMS_STR("max_gap_s raised to " << max_gap_s_ << " s: " << options_.acquire_samples + 1
+                                                  << " periods of the " << calibration.rate_hz << " Hz sonar"));
+  }
 }
 
 bool SonarAltitudeFilter::validRange(double r) const { return std::isfinite(r) && r >= min_range_ && r <= max_range_; }
@@ -163,7 +171,7 @@ void SonarAltitudeFilter::feed(const SonarRange& sample, std::vector<SonarFilter
                            VIMS_STR("dropout: range " << sample.range << " outside [" << min_range_ << ", "
                                                       << max_range_ << "] or not finite"));
   }
-  if (locked_ && t - window_.back().t > options_.max_gap_s) {
+  if (locked_ && t - window_.back().t > max_gap_s_) {
     startReset(t, VIMS_STR("no accepted range for " << (t - window_.back().t) << " s (> max_gap_s)"), results);
   }
   if (locked_) {
@@ -219,7 +227,7 @@ void SonarAltitudeFilter::feedAcquiring(const SonarRange& sample, bool valid) {
   pending_.push_back(p);
   // Candidates older than max_gap_s can no longer share a straight line with new samples.
   for (Pending& q : pending_) {
-    if (q.candidate && sample.t - q.result.t > options_.max_gap_s) q.candidate = false;
+    if (q.candidate && sample.t - q.result.t > max_gap_s_) q.candidate = false;
   }
   if (valid) tryAcquire();
 }

@@ -62,9 +62,16 @@ struct SonarCalibration {
 struct MagnetometerCalibration {
   Eigen::Isometry3d T_b_m = Eigen::Isometry3d::Identity();
   double rate_hz = 1000.0;
-  double noise_std = 0.0;           ///< tesla, per axis and sample
-  double coil_frequency_hz = 11.0;  ///< frequency of the seabed coil's alternating field
-  double declination_deg = 0.0;     ///< magnetic declination at the site, east positive
+  double noise_std = 0.0;  ///< tesla, per axis and sample
+  /// Frequency of the seabed coil's alternating field [Hz]; 0 when the sequence leaves it open
+  /// (contract v2: `null` or no key), and the magnetometer front end finds it from the data.
+  double coil_frequency_hz = 11.0;
+  /// Every coil the sequence lists, coil_frequency_hz first. The front end extracts signatures at
+  /// coil_frequency_hz; places near the other coils are recognised visually (issue 22's next step).
+  std::vector<double> coil_frequencies_hz = {11.0};
+  double declination_deg = 0.0;  ///< magnetic declination at the site, east positive
+
+  bool coilFrequencyKnown() const { return coil_frequency_hz > 0.0; }
 };
 
 /// Pressure (depth) sensor, optional (contract version 2): absolute pressure at the port.

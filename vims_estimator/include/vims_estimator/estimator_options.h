@@ -72,7 +72,8 @@ struct EstimatorOptions {
   /// visual-inertial odometry (the paper's "w/o sonar" ablation).
   bool use_sonar = true;
   /// [s] The filtered range is interpolated to a frame time only from samples within this time of
-  /// it (the sonar runs at 10 Hz, so 0.25 s tolerates one missing sample).
+  /// it (at the contract's 10 Hz, 0.25 s tolerates one missing sample; a slower sonar gets 2.5 of
+  /// its periods, VioEstimator::sonarInterpolationGapS).
   double sonar_max_interpolation_gap_s = 0.25;
   /// [s] A frame waits for a filtered range at or after its time until the IMU is this far past
   /// it. The filtered ranges come one node later than the images on the AUV (the sonar filter

@@ -148,6 +148,12 @@ class VioEstimator {
   void addObservations(Frame* frame, const TrackedFrame& tracked);
   double parallaxPx(const Frame& a, const Frame& b, int* common) const;
   std::optional<double> sonarRangeAt(double t) const;
+  /// sonar_max_interpolation_gap_s, or 2.5 periods of the sequence's sonar if longer (a slow
+  /// sonar: one lost sample is still interpolated over).
+  double sonarInterpolationGapS() const;
+  /// sonar_wait_s, or 1.5 periods of a sensor of `rate_hz` if longer: the range after a frame
+  /// comes within one period, so the wait must cover one for online to equal offline.
+  double rangeWaitS(double rate_hz) const;
   std::optional<double> pressureDepthAt(double t) const;
   bool usePressure() const { return options_.pressure.enabled && pressure_filter_ != nullptr; }
   bool slopedSeabed() const { return options_.use_sonar && options_.seabed.model == SeabedModel::kLocalPlane; }

@@ -47,6 +47,26 @@ struct AttitudeFilterOptions {
   std::string toYaml() const;
 };
 
+/// The search for the coil's frequency when the sequence leaves it open (contract v2:
+/// coil_frequency_hz null or absent; coil_frequency_search.h).
+struct CoilSearchOptions {
+  /// Magnetometer data [s] whose spectrum is searched; the signatures start once it is found
+  /// (the buffered data are then processed). 10 s resolves 0.1 Hz bins and holds 110 periods
+  /// of an 11 Hz coil, enough to place the peak to a few mHz.
+  double window_s = 10.0;
+  /// The band searched [Hz]: above the vehicle's own motion (turns modulate the geomagnetic
+  /// field below ~1 Hz), up to this fraction of the Nyquist frequency (the anti-alias roll-off).
+  double min_frequency_hz = 2.0;
+  double max_fraction_of_nyquist = 0.9;
+  /// A line counts as the coil when its power is at least this many times the median power within
+  /// 1 Hz of it. Noise alone stays below ~10x (6.4x in the unit test's 10 s of 1000 Hz data), so 100 (20 dB)
+  /// does not take noise for a coil; data without a coil in reach are searched again later.
+  double min_peak_to_median = 100.0;
+
+  /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
+  static const OptionTable<CoilSearchOptions>& optionTable();
+};
+
 struct MagnetometerOptions {
   /// Length of one spectral window [s]. The paper's high-rate magnetometer reaches good
   /// signatures with 2 s of data (22 coil periods at 11 Hz, bin spacing 0.5 Hz).
@@ -75,13 +95,13 @@ struct MagnetometerOptions {
   /// pipeline. 2 s = one window.
   double max_fill_gap_s = 2.0;
   AttitudeFilterOptions attitude;
-
-  /// Reads a mapping (config/magnetometer.yaml or a section of it); missing keys keep their
-  /// defaults; the AHRS options are in the sub-mapping `attitude`. Unknown keys and out-of-range
-  /// values throw ConfigError naming the key.
+  CoilSearchOptions coil_search;
 
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<MagnetometerOptions>& optionTable();
+  /// Reads a mapping (config/magnetometer.yaml or a section of it); missing keys keep their
+  /// defaults; the AHRS options are in the sub-mapping `attitude`. Unknown keys and out-of-range
+  /// values throw ConfigError naming the key.
   static MagnetometerOptions fromReader(const ConfigReader& reader);
   void validate(const ConfigReader& reader) const;
   /// Checks the options against the sensor (window long enough, neighbouring bins inside

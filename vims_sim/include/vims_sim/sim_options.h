@@ -58,14 +58,24 @@ struct SimOptions {
   /// The camera's lens: "radtan" (a mildly distorted pinhole, 60 deg across) or "equidistant"
   /// (a fisheye behind a dome port, Kannala-Brandt, about 110 deg across).
   std::string distortion_model = "radtan";
-  int render_threads = 0;              ///< 0: one per hardware thread
-  TerrainOptions terrain;              ///< default: the flat seabed z = 0
-  std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold
-  bool hold_plane_only = false;        ///< --hold-plane-only: altitude hold ignores the rolling relief
+  double coil_frequency_hz = 11.0;      ///< the seabed coil's frequency
+  bool coil_frequency_unknown = false;  ///< the sequence YAML leaves the coil frequency open (null)
+  int render_threads = 0;               ///< 0: one per hardware thread
+  TerrainOptions terrain;               ///< default: the flat seabed z = 0
+  std::optional<double> depth_hold_z;   ///< [m] constant body z; unset: altitude hold
+  bool hold_plane_only = false;         ///< --hold-plane-only: altitude hold ignores the rolling relief
   PressureOptions pressure;
   /// [m] the sonar's range limit (the YAML's max_range); a seabed beyond it gives no echo (+inf),
   /// as over a drop-off or when the vehicle climbs off the bottom. Unset: the default sonar's.
   std::optional<double> sonar_max_range;
+  /// Sensor rates [Hz], within the contract's ranges; the sequence YAML states them, and the IMU's
+  /// per-sample noise follows its rate (the noise densities stay those of the default IMU).
+  struct Rates {
+    double camera = 10.0;
+    double imu = 200.0;
+    double sonar = 10.0;
+    double magnetometer = 1000.0;
+  } rates;
 
   uint64_t worldSeed() const { return world_seed ? *world_seed : seed; }
   /// `name`, or the basename of out_dir when empty.

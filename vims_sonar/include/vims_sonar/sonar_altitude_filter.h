@@ -114,6 +114,9 @@ class SonarAltitudeFilter {
   double sigma_;
   double min_range_;
   double max_range_;
+  /// max_gap_s, but at least acquire_samples + 1 sample periods of the sequence's sonar rate:
+  /// acquisition must fit its samples, and one lost sample must not reset a slow sonar.
+  double max_gap_s_;
   LoggerPtr logger_;
 
   bool locked_ = false;

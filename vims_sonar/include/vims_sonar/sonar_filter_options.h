@@ -35,7 +35,8 @@ struct SonarFilterOptions {
   double max_range_accel_mps2 = 0.3;
   /// No accepted sample for this long [s] (dropouts, outliers or missing messages): the trend is
   /// no longer trustworthy, the filter resets and re-acquires. 1 s = 10 samples at 10 Hz, so a
-  /// single dropout or outlier never resets it.
+  /// single dropout or outlier never resets it; a sonar slower than acquire_samples + 1 samples
+  /// per max_gap_s gets that many of its periods instead (SonarAltitudeFilter).
   double max_gap_s = 1.0;
   /// Consecutive valid samples that must agree (each within the gate of the line through the
   /// others) before the filter (re)acquires. 4 is the smallest number for which a line through

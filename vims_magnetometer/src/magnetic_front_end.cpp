@@ -1,0 +1,115 @@
+#include "vims_magnetometer/magnetic_front_end.h"
+
+#include <cmath>
+
+#include "vims_magnetometer/coil_frequency_search.h"
+
+namespace vims {
+namespace {
+constexpr const char* kComponent = "mag_front_end";
+}  // namespace
+
+MagneticFrontEnd::MagneticFrontEnd(const MagnetometerOptions& options, const MagnetometerCalibration& calibration,
+                                   double gravity, LoggerPtr logger)
+    : options_(options),
+      calibration_(calibration),
+      gravity_(gravity),
+      logger_(logger ? std::move(logger) : Logger::nullLogger()) {
+  options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
+  if (calibration_.coil_frequencies_hz.size() > 1) {
+    logger_->warn(kComponent, VIMS_STR("the sequence lists " << calibration_.coil_frequencies_hz.size()
+                                                             << " coils; signatures are extracted at the first ("
+                                                             << calibration_.coil_frequency_hz
+                                                             << " Hz): places near the others close visually"));
+  }
+  if (calibration_.coilFrequencyKnown()) {
+    extractor_ = std::make_unique<SignatureExtractor>(options_, calibration_, gravity_, logger_);
+  } else {
+    logger_->info(kComponent, VIMS_STR("the sequence leaves the coil frequency open: searching "
+                                       << options_.coil_search.window_s << " s of data for it"));
+  }
+}
+
+MagneticFrontEnd::~MagneticFrontEnd() = default;
+
+void MagneticFrontEnd::feedImu(const ImuSample& sample) {
+  if (extractor_) {
+    extractor_->feedImu(sample);
+  } else {
+    imu_buffer_.push_back(sample);
+  }
+}
+
+void MagneticFrontEnd::feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
+                               std::vector<GeomagneticSample>* geomagnetic) {
+  if (extractor_) {
+    extractor_->feedMag(sample, signatures, geomagnetic);
+    return;
+  }
+  if (!mag_buffer_.empty() && !(sample.t >= mag_buffer_.back().t)) {
+    // A clock going backwards (a bag loop) or a non-finite stamp: start the search afresh.
+    dropped_samples_ += static_cast<long>(mag_buffer_.size());
+    mag_buffer_.clear();
+    imu_buffer_.clear();
+    if (!std::isfinite(sample.t)) return;
+  }
+  mag_buffer_.push_back(sample);
+  if (mag_buffer_.back().t - mag_buffer_.front().t >= options_.coil_search.window_s) search(signatures, geomagnetic);
+}
+
+void MagneticFrontEnd::search(std::vector<SignatureWindow>* signatures, std::vector<GeomagneticSample>* geomagnetic) {
+  ++searches_;
+  std::vector<MagSample> finite;
+  finite.reserve(mag_buffer_.size());
+  for (const MagSample& s : mag_buffer_)
+    if (s.field.allFinite()) finite.push_back(s);
+  const CoilLine line = findCoilLine(finite, calibration_.rate_hz, options_.coil_search);
+  if (!line.found) {
+    logger_->info(kComponent,
+                  VIMS_STR("no coil line yet in " << options_.coil_search.window_s << " s of data (strongest at "
+                                                  << line.frequency_hz << " Hz, " << line.peak_to_median
+                                                  << "x the power around it); searching on"));
+    const double keep_from = mag_buffer_.back().t - 0.5 * options_.coil_search.window_s;
+    while (!mag_buffer_.empty() && mag_buffer_.front().t < keep_from) {
+      mag_buffer_.pop_front();
+      ++dropped_samples_;
+    }
+    while (!imu_buffer_.empty() && imu_buffer_.front().t < keep_from) imu_buffer_.pop_front();
+    return;
+  }
+  MagnetometerCalibration found = calibration_;
+  found.coil_frequency_hz = line.frequency_hz;
+  found.coil_frequencies_hz = {line.frequency_hz};
+  try {
+    extractor_ = std::make_unique<SignatureExtractor>(options_, found, gravity_, logger_);
+  } catch (const ConfigError& e) {
+    // The options do not suit this frequency (e.g. too few periods in a window): a line that
+    // low or high is not a coil VIMS can use; keep searching.
+    logger_->warn(kComponent, VIMS_STR("a line at " << line.frequency_hz << " Hz was found but " << e.what()));
+    mag_buffer_.clear();
+    imu_buffer_.clear();
+    return;
+  }
+  calibration_ = found;
+  logger_->info(kComponent, VIMS_STR("coil frequency found: " << line.frequency_hz << " Hz (" << line.peak_to_median
+                                                              << "x the power around it)"));
+  // Replay the buffered samples in time order (IMU first at equal stamps, as a bag would).
+  auto imu = imu_buffer_.begin();
+  for (const MagSample& m : mag_buffer_) {
+    for (; imu != imu_buffer_.end() && imu->t <= m.t; ++imu) extractor_->feedImu(*imu);
+    extractor_->feedMag(m, signatures, geomagnetic);
+  }
+  for (; imu != imu_buffer_.end(); ++imu) extractor_->feedImu(*imu);
+  mag_buffer_.clear();
+  imu_buffer_.clear();
+}
+
+double MagneticFrontEnd::coilFrequency() const { return extractor_ ? calibration_.coil_frequency_hz : 0.0; }
+
+SignatureExtractorStats MagneticFrontEnd::stats() const {
+  SignatureExtractorStats s = extractor_ ? extractor_->stats() : SignatureExtractorStats{};
+  s.mag_samples += dropped_samples_;
+  return s;
+}
+
+}  // namespace vims
