@@ -134,9 +134,9 @@ SequenceConfig SequenceConfig::fromReader(const ConfigReader& root, std::vector<
   requirePositive(mag, "rate_hz", cfg.magnetometer.rate_hz);
   cfg.magnetometer.noise_std = mag.get<double>("noise_std");
   requireNonNegative(mag, "noise_std", cfg.magnetometer.noise_std);
-  cfg.magnetometer.coil_frequencies_hz = readCoilFrequencies(mag, cfg.magnetometer.rate_hz);
-  cfg.magnetometer.coil_frequency_hz =
-      cfg.magnetometer.coil_frequencies_hz.empty() ? 0.0 : cfg.magnetometer.coil_frequencies_hz.front();
+  const std::vector<double> coils = readCoilFrequencies(mag, cfg.magnetometer.rate_hz);
+  cfg.magnetometer.coil_frequency_hz = coils.empty() ? 0.0 : coils.front();
+  if (coils.size() > 1) cfg.magnetometer.other_coil_frequencies_hz.assign(coils.begin() + 1, coils.end());
   cfg.magnetometer.declination_deg = mag.get<double>("declination_deg", 0.0);
   requireInRange(mag, "declination_deg", cfg.magnetometer.declination_deg, -180.0, 180.0);
 
@@ -205,9 +205,9 @@ std::string SequenceConfig::toYaml() const {
      << "  rate_hz: " << magnetometer.rate_hz << "\n"
      << "  noise_std: " << magnetometer.noise_std << "\n"
      << "  coil_frequency_hz: ";
-  if (magnetometer.coil_frequencies_hz.size() > 1) {
-    for (std::size_t i = 0; i < magnetometer.coil_frequencies_hz.size(); ++i)
-      os << (i ? ", " : "[") << magnetometer.coil_frequencies_hz[i];
+  if (!magnetometer.other_coil_frequencies_hz.empty()) {
+    os << "[" << magnetometer.coil_frequency_hz;
+    for (const double f : magnetometer.other_coil_frequencies_hz) os << ", " << f;
     os << "]\n";
   } else if (magnetometer.coilFrequencyKnown()) {
     os << magnetometer.coil_frequency_hz << "\n";

@@ -187,17 +187,18 @@ TEST(SequenceConfig, CoilFrequencyMayBeAListNullOrAbsent) {
   auto coils = [](const std::string& yaml) {
     return SequenceConfig::fromReader(ConfigReader::fromString(yaml)).magnetometer;
   };
-  EXPECT_EQ(coils(base).coil_frequencies_hz, std::vector<double>{11.0});
+  EXPECT_DOUBLE_EQ(coils(base).coil_frequency_hz, 11.0);
+  EXPECT_TRUE(coils(base).other_coil_frequencies_hz.empty());
   // Several coils: the first is the one signatures are extracted at.
   const auto two = coils(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: [17.0, 11.0]"));
   EXPECT_DOUBLE_EQ(two.coil_frequency_hz, 17.0);
-  EXPECT_EQ(two.coil_frequencies_hz, (std::vector<double>{17.0, 11.0}));
+  EXPECT_EQ(two.other_coil_frequencies_hz, std::vector<double>{11.0});
   // null or absent: found from the data.
   for (const std::string& open : {replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: null"),
                                   replace(base, "  coil_frequency_hz: 11.0\n", "")}) {
     const auto m = coils(open);
     EXPECT_FALSE(m.coilFrequencyKnown());
-    EXPECT_TRUE(m.coil_frequencies_hz.empty());
+    EXPECT_TRUE(m.other_coil_frequencies_hz.empty());
   }
   EXPECT_NE(errorOf(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: []")).find("coil_frequency_hz"),
             std::string::npos);
@@ -210,8 +211,9 @@ TEST(SequenceConfig, CoilFrequencyMayBeAListNullOrAbsent) {
         ConfigReader::fromString(replace(base, "coil_frequency_hz: 11.0", "coil_frequency_hz: " + form)));
     const std::string path = ::testing::TempDir() + "/vims_seq_coils.yaml";
     cfg.save(path);
-    EXPECT_EQ(SequenceConfig::load(path).magnetometer.coil_frequencies_hz, cfg.magnetometer.coil_frequencies_hz)
-        << form;
+    const auto back = SequenceConfig::load(path).magnetometer;
+    EXPECT_EQ(back.coil_frequency_hz, cfg.magnetometer.coil_frequency_hz) << form;
+    EXPECT_EQ(back.other_coil_frequencies_hz, cfg.magnetometer.other_coil_frequencies_hz) << form;
     std::remove(path.c_str());
   }
 }

@@ -16,8 +16,8 @@ MagneticFrontEnd::MagneticFrontEnd(const MagnetometerOptions& options, const Mag
       gravity_(gravity),
       logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
-  if (calibration_.coil_frequencies_hz.size() > 1) {
-    logger_->warn(kComponent, VIMS_STR("the sequence lists " << calibration_.coil_frequencies_hz.size()
+  if (!calibration_.other_coil_frequencies_hz.empty()) {
+    logger_->warn(kComponent, VIMS_STR("the sequence lists " << calibration_.other_coil_frequencies_hz.size() + 1
                                                              << " coils; signatures are extracted at the first ("
                                                              << calibration_.coil_frequency_hz
                                                              << " Hz): places near the others close visually"));
@@ -79,7 +79,6 @@ void MagneticFrontEnd::search(std::vector<SignatureWindow>* signatures, std::vec
   }
   MagnetometerCalibration found = calibration_;
   found.coil_frequency_hz = line.frequency_hz;
-  found.coil_frequencies_hz = {line.frequency_hz};
   try {
     extractor_ = std::make_unique<SignatureExtractor>(options_, found, gravity_, logger_);
   } catch (const ConfigError& e) {

@@ -17,7 +17,6 @@ MagnetometerCalibration calibrationFor(const World& world, bool frequency_known)
   c.rate_hz = 1000.0;
   c.noise_std = 5e-9;
   c.coil_frequency_hz = frequency_known ? world.coil_frequency : 0.0;
-  c.coil_frequencies_hz = frequency_known ? std::vector<double>{world.coil_frequency} : std::vector<double>{};
   c.declination_deg = world.declination_deg;
   return c;
 }

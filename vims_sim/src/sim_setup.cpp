@@ -227,8 +227,6 @@ SimSetup buildSimSetup(const SimOptions& options) {
   site.coil.frequency = options.coil_frequency_hz;
   // The truth file keeps the frequency; the sequence YAML may leave it for VIMS to find (null).
   cfg.magnetometer.coil_frequency_hz = options.coil_frequency_unknown ? 0.0 : site.coil.frequency;
-  cfg.magnetometer.coil_frequencies_hz.clear();
-  if (!options.coil_frequency_unknown) cfg.magnetometer.coil_frequencies_hz.push_back(site.coil.frequency);
   cfg.magnetometer.declination_deg = site.geomagnetic.declination_deg;
 
   // --- The truth.

@@ -66,9 +66,9 @@ struct MagnetometerCalibration {
   /// Frequency of the seabed coil's alternating field [Hz]; 0 when the sequence leaves it open
   /// (contract v2: `null` or no key), and the magnetometer front end finds it from the data.
   double coil_frequency_hz = 11.0;
-  /// Every coil the sequence lists, coil_frequency_hz first. The front end extracts signatures at
-  /// coil_frequency_hz; places near the other coils are recognised visually (issue 22's next step).
-  std::vector<double> coil_frequencies_hz = {11.0};
+  /// The coils the sequence lists after the first (contract v2: a list). The front end extracts
+  /// signatures at coil_frequency_hz; places near these coils are recognised visually.
+  std::vector<double> other_coil_frequencies_hz;
   double declination_deg = 0.0;  ///< magnetic declination at the site, east positive
 
   bool coilFrequencyKnown() const { return coil_frequency_hz > 0.0; }
