@@ -26,6 +26,7 @@
 #include "vims_pose_graph/bow_database.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/magnetic_submap.h"
+#include "vims_pose_graph/odometry_drift.h"
 #include "vims_pose_graph/pose_graph.h"
 
 namespace vims {
@@ -102,8 +103,13 @@ class MultiScaleMap {
   /// Throws std::invalid_argument for an unknown session or a non-finite pose.
   PoseGraphNodeId addNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b, const Eigen::Vector3d& p_w_b,
                           double yaw_w_b, VisualSubmap visual, bool magnetic_coverage);
-  /// VIO relative pose between two nodes of one session (sigmas as PoseGraph4Dof: growing with distance).
+  /// VIO relative pose between two nodes of one session (sigmas as PoseGraph4Dof: growing with
+  /// distance, scaled by the drift learnt so far).
   void addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to);
+  /// Fits the VIO's drift from the loops within this run's sessions (odometry_drift.h) and
+  /// re-weighs their sequential edges, and the ones added later, with it.
+  const OdometryDriftFit& learnOdometryDrift();
+  const OdometryDriftFit& odometryDrift() const { return drift_.fit(); }
   /// The weak "did not move far" edge from the last node of a session to the first of the next
   /// (zero relative motion, the given sigmas); joins their components.
   void addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, double sigma_position_m, double sigma_yaw_rad);
@@ -199,6 +205,8 @@ class MultiScaleMap {
   uint32_t findSession(uint32_t session) const;
   void uniteSessions(uint32_t a, uint32_t b);
   void checkNode(PoseGraphNodeId id, const char* what) const;
+  /// Indices of the sequential edges within one of this run's (not loaded) sessions.
+  std::vector<size_t> runOdometryEdges() const;
   void applyCorrection(MapNode& n, const Correction4Dof& c) const;
 
   std::shared_ptr<const BinaryVocabulary> vocabulary_;
@@ -215,6 +223,7 @@ class MultiScaleMap {
   std::vector<SequentialEdge> sequential_edges_;
   std::vector<LoopEdge> loop_edges_;
   LoopEdgeId next_loop_id_ = 0;
+  OdometryDriftEstimator drift_;
   std::vector<YawMeasurement> yaw_measurements_;
   std::vector<DepthMeasurement> depth_measurements_;
   std::vector<MagneticSubmap> magnetic_submaps_;

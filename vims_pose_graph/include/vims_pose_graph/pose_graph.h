@@ -51,6 +51,15 @@ struct PoseGraphOptions {
   double odometry_position_sigma_per_m = 0.05;               ///< [m/m]
   double odometry_yaw_sigma_rad = 0.1 * M_PI / 180.0;        ///< key odometry_yaw_sigma_deg
   double odometry_yaw_sigma_per_m_rad = 0.5 * M_PI / 180.0;  ///< [rad/m], key odometry_yaw_sigma_per_m_deg
+  /// The size of the VIO's drift learnt from the loops (odometry_drift.h; docs/pose_graph.md,
+  /// "Odometry drift learnt from the loops"): once the loops of this many revisit events give
+  /// chains of odometry edges, the sigmas above are scaled (variance multipliers for position
+  /// and yaw, within [scale_min, scale_max]) to the values under which the loops' discrepancies
+  /// against the chains are most likely. The sigmas above then give only the shape.
+  bool learn_odometry_drift = false;
+  int odometry_drift_min_chains = 3;
+  double odometry_drift_scale_min = 1e-3;
+  double odometry_drift_scale_max = 10.0;
 
   /// Loop edges: sigmas of a PnP-verified relative pose, and the robust loss applied to the
   /// whitened residual (scale in sigmas). Cauchy's cost grows only logarithmically, so a wrong

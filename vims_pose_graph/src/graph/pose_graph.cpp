@@ -12,6 +12,7 @@
 
 #include "vims_common/option_table.h"
 #include "vims_pose_graph/angles.h"
+#include "vims_pose_graph/odometry_drift.h"
 
 namespace vims {
 
@@ -87,6 +88,10 @@ const OptionTable<PoseGraphOptions>& PoseGraphOptions::optionTable() {
           .number("odometry_position_sigma_per_m", &O::odometry_position_sigma_per_m, Bounds::nonNegative())
           .scaledNumber("odometry_yaw_sigma_deg", &O::odometry_yaw_sigma_rad, kDeg, Bounds::positive())
           .scaledNumber("odometry_yaw_sigma_per_m_deg", &O::odometry_yaw_sigma_per_m_rad, kDeg, Bounds::nonNegative())
+          .flag("learn_odometry_drift", &O::learn_odometry_drift)
+          .integer("odometry_drift_min_chains", &O::odometry_drift_min_chains, Bounds::closed(1, 1000))
+          .number("odometry_drift_scale_min", &O::odometry_drift_scale_min, Bounds::closed(1e-6, 1.0))
+          .number("odometry_drift_scale_max", &O::odometry_drift_scale_max, Bounds::closed(1.0, 1e6))
           .number("loop_position_sigma_m", &O::loop_position_sigma_m, Bounds::positive())
           .scaledNumber("loop_yaw_sigma_deg", &O::loop_yaw_sigma_rad, kDeg, Bounds::positive())
           .flag("loop_sigma_from_inliers", &O::loop_sigma_from_inliers)
@@ -175,10 +180,7 @@ void PoseGraph4Dof::addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to) 
   e.from = from;
   e.to = to;
   e.measurement = relativePose4DofFromPoses(nodes_[from].T_odom_b, nodes_[to].T_odom_b);
-  const double d = e.measurement.p_li_j.norm();
-  const double sigma_p = std::hypot(options_.odometry_position_sigma_m, options_.odometry_position_sigma_per_m * d);
-  const double sigma_yaw = std::hypot(options_.odometry_yaw_sigma_rad, options_.odometry_yaw_sigma_per_m_rad * d);
-  e.sqrt_information << 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_yaw;
+  e.sqrt_information = sequentialEdgeSqrtInformation(options_, e.measurement);
   sequential_edges_.push_back(e);
 }
 

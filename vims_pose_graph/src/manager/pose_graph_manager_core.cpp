@@ -346,11 +346,24 @@ void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
   }
   const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query, a.sigma);
   ++stats_.loops_accepted;
+  if (options_.graph.learn_odometry_drift) learnOdometryDrift(a.t_query);
   scheduler_.loopAccepted(loop_id, m, q);
   logger_->info(kComponent,
                 VIMS_STR(std::fixed << std::setprecision(3) << "loop accepted: t_query=" << a.t_query
                                     << " t_match=" << a.t_match << " inliers=" << a.inliers << " bow=" << a.bow_score));
   requestOptimisation(OptimisationTrigger::kLoop);
+}
+
+void PoseGraphManagerCore::learnOdometryDrift(double t) {
+  const OdometryDriftScale before = map_.odometryDrift().scale;
+  const OdometryDriftFit& fit = map_.learnOdometryDrift();
+  if (!fit.fitted || (fit.scale.position == before.position && fit.scale.yaw == before.yaw)) return;
+  logger_->info(kComponent,
+                VIMS_STR("odometry drift learnt at t="
+                         << std::fixed << std::setprecision(3) << t << std::defaultfloat << " from " << fit.chains_used
+                         << " loop chains (" << fit.chains_rejected << " rejected, mean " << fit.mean_chain_length_m
+                         << " m): sequential sigmas x" << std::sqrt(fit.scale.position) << " (position), x"
+                         << std::sqrt(fit.scale.yaw) << " (yaw)"));
 }
 
 void PoseGraphManagerCore::placeSignatures(bool flush) {

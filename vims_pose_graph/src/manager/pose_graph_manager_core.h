@@ -110,6 +110,8 @@ class PoseGraphManagerCore {
   void processPending(PendingKeyframe& pending);  ///< consumes its BoW vector and points
   void placeSignatures(bool flush);
   void addMagneticDraft(const std::optional<MagneticSubmapDraft>& draft);
+  /// Re-fits the VIO's drift from the loops (PoseGraphOptions::learn_odometry_drift); logs a change.
+  void learnOdometryDrift(double t);
   void acceptLoop(const LoopAttempt& attempt);
   void pruneBuffers();
   /// Solves inline (see solveNow), or hands the request over (handOptimisationRequestsTo).

@@ -26,7 +26,8 @@ MultiScaleMap::MultiScaleMap(std::shared_ptr<const BinaryVocabulary> vocabulary,
     : vocabulary_(std::move(vocabulary)),
       graph_options_(graph_options),
       north_enu_(magneticNorthEnu(declination_rad)),
-      logger_(logger ? std::move(logger) : Logger::nullLogger()) {
+      logger_(logger ? std::move(logger) : Logger::nullLogger()),
+      drift_(graph_options) {
   graph_options_.validate();
   if (!std::isfinite(declination_rad)) throw std::invalid_argument("MultiScaleMap: declination is not finite");
   if (vocabulary_ && !vocabulary_->empty()) {
@@ -106,14 +107,33 @@ void MultiScaleMap::addSequentialEdge(PoseGraphNodeId from, PoseGraphNodeId to) 
   e.from = from;
   e.to = to;
   e.measurement = relativePose4DofFromPoses(nodes_[from].pose.T_odom_b, nodes_[to].pose.T_odom_b);
-  // Same noise model as PoseGraph4Dof::addSequentialEdge: VIO drift grows with the distance.
-  const double d = e.measurement.p_li_j.norm();
-  const double sigma_p =
-      std::hypot(graph_options_.odometry_position_sigma_m, graph_options_.odometry_position_sigma_per_m * d);
-  const double sigma_yaw =
-      std::hypot(graph_options_.odometry_yaw_sigma_rad, graph_options_.odometry_yaw_sigma_per_m_rad * d);
-  e.sqrt_information << 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_p, 1.0 / sigma_yaw;
+  // The noise model of PoseGraph4Dof::addSequentialEdge, with the drift learnt so far.
+  e.sqrt_information = sequentialEdgeSqrtInformation(graph_options_, e.measurement, drift_.fit().scale);
   sequential_edges_.push_back(e);
+}
+
+std::vector<size_t> MultiScaleMap::runOdometryEdges() const {
+  std::vector<size_t> out;
+  for (size_t k = 0; k < sequential_edges_.size(); ++k) {
+    const SequentialEdge& e = sequential_edges_[k];
+    const uint32_t session = nodes_[e.from].session;
+    if (session == nodes_[e.to].session && !sessions_[session].loaded) out.push_back(k);
+  }
+  return out;
+}
+
+const OdometryDriftFit& MultiScaleMap::learnOdometryDrift() {
+  const std::vector<size_t> run_edges = runOdometryEdges();
+  std::vector<SequentialEdge> edges;
+  edges.reserve(run_edges.size());
+  for (size_t k : run_edges) edges.push_back(sequential_edges_[k]);
+  const OdometryDriftFit& fit = drift_.update(edges, loop_edges_);
+  // Re-weigh the run's edges (the fit is 1, 1 until enough events): a loaded session's edges keep
+  // the weights of the run that recorded them.
+  for (size_t k : run_edges)
+    sequential_edges_[k].sqrt_information =
+        sequentialEdgeSqrtInformation(graph_options_, sequential_edges_[k].measurement, fit.scale);
+  return fit;
 }
 
 void MultiScaleMap::addSessionLink(PoseGraphNodeId from, PoseGraphNodeId to, double sigma_position_m,
