@@ -6,6 +6,10 @@
 
 namespace vims {
 
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+}  // namespace
+
 const OptionTable<EstimatorOptions>& EstimatorOptions::optionTable() {
   using O = EstimatorOptions;
   static const auto table =
@@ -30,6 +34,10 @@ const OptionTable<EstimatorOptions>& EstimatorOptions::optionTable() {
           .number("td_initial_s", &O::td_initial_s, Bounds::closed(-0.5, 0.5))
           .number("max_abs_td_s", &O::max_abs_td_s, Bounds::closed(1e-6, 0.5))
           .number("td_min_image_speed_px_s", &O::td_min_image_speed_px_s, Bounds::nonNegative())
+          .flag("estimate_extrinsic", &O::estimate_extrinsic)
+          .scaledNumber("extrinsic_prior_rotation_deg", &O::extrinsic_prior_rotation_rad, kDeg,
+                        Bounds::closed(1e-3, 30.0))
+          .number("extrinsic_prior_translation_m", &O::extrinsic_prior_translation_m, Bounds::closed(1e-4, 1.0))
           .number("init_gravity_window_s", &O::init_gravity_window_s, Bounds::closed(0.05, 10.0))
           .number("init_static_gyro_std", &O::init_static_gyro_std, Bounds::positive())
           .number("init_static_accel_std", &O::init_static_accel_std, Bounds::positive())

@@ -99,6 +99,18 @@ VioEstimator::~VioEstimator() = default;
 
 Eigen::Isometry3d VioEstimator::extrinsicCamera() const { return poseBlockToIsometry(T_b_c_block_); }
 
+std::string extrinsicChange(const Eigen::Isometry3d& yaml_T_b_c, const Eigen::Isometry3d& estimated_T_b_c) {
+  const double rotation_deg =
+      Eigen::AngleAxisd(yaml_T_b_c.linear().transpose() * estimated_T_b_c.linear()).angle() * 180.0 / M_PI;
+  const double translation_m = (estimated_T_b_c.translation() - yaml_T_b_c.translation()).norm();
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(3) << "rotation " << rotation_deg << " deg, translation "
+     << std::setprecision(4) << translation_m << " m from the sequence YAML's; T_b_c = [" << std::setprecision(9);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) os << estimated_T_b_c.matrix()(r, c) << (r == 3 && c == 3 ? "]" : ", ");
+  return os.str();
+}
+
 void VioEstimator::reset(const std::string& why) {
   if (!frames_.empty()) {
     logger_->warn(kComponent, "reset: " + why + " (a new session starts at the next frame)");
@@ -609,6 +621,12 @@ void VioEstimator::processFrame(const TrackedFrame& tracked, const cv::Mat& imag
     logger_->info(kComponent,
                   VIMS_STR("camera-IMU time offset td = " << std::fixed << std::setprecision(4) << td_[0]
                                                           << " s at t=" << std::setprecision(1) << tracked.t));
+  }
+  if (options_.estimate_extrinsic && tracked.t - last_extrinsic_log_t_ >= 30.0) {
+    last_extrinsic_log_t_ = tracked.t;
+    logger_->info(kComponent,
+                  VIMS_STR("camera-IMU extrinsic at t=" << std::fixed << std::setprecision(1) << tracked.t << ": "
+                                                        << extrinsicChange(sequence_.camera.T_b_c, extrinsicCamera())));
   }
   removeOutliers();
 

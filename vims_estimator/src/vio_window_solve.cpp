@@ -45,7 +45,18 @@ void VioEstimator::optimize(VioFrameResult* result) {
     problem.AddParameterBlock(frame->sb, kSpeedBiasSize);
   }
   problem.AddParameterBlock(T_b_c_block_, kPoseSize, &pose_manifold);
-  problem.SetParameterBlockConstant(T_b_c_block_);
+  if (options_.estimate_extrinsic) {
+    // The calibration's prior, once per solve (what the marginalised windows knew of T_b_c is in
+    // the marginalisation prior, which does not contain this factor).
+    Matrix6d sqrt_information = Matrix6d::Zero();
+    sqrt_information.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / options_.extrinsic_prior_translation_m);
+    sqrt_information.bottomRightCorner<3, 3>().diagonal().setConstant(1.0 / options_.extrinsic_prior_rotation_rad);
+    problem.AddResidualBlock(new PosePriorFactor(sequence_.camera.T_b_c.translation(),
+                                                 Eigen::Quaterniond(sequence_.camera.T_b_c.linear()), sqrt_information),
+                             nullptr, T_b_c_block_);
+  } else {
+    problem.SetParameterBlockConstant(T_b_c_block_);
+  }
   problem.AddParameterBlock(td_, 1);
   // Mean image speed of the window's tracked observations: td is only estimated with motion.
   double speed_sum = 0.0;

@@ -384,6 +384,8 @@ OfflineSummary OfflinePipeline::run() {
   summary.vio_resets = vio_->estimator().resets();  // also resets from IMU input (gap, clock)
   summary.vio_sessions = vio_->estimator().session() + 1;
   summary.vio_td_s = vio_->estimator().td();
+  if (vio_->estimator().options().estimate_extrinsic)
+    summary.vio_extrinsic = extrinsicChange(sequence_.camera.T_b_c, vio_->estimator().extrinsicCamera());
   signature_csv_->flush();
   summary.sonar = sonar_filter_->stats();
   summary.magnetometer = magnetic_front_end_->stats();
@@ -432,6 +434,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "mode: " << options_.mode << (options_.vio_only ? "\nvio_only: true" : "") << "\n";
   out << "vio: {frames: " << s.vio_frames << ", keyframes: " << s.vio_keyframes << ", resets: " << s.vio_resets
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
+  if (!s.vio_extrinsic.empty()) out << "vio_extrinsic: \"" << s.vio_extrinsic << "\"\n";
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
       << ", culled_submaps: " << pg.culled_submaps << ", sessions: " << pg.sessions

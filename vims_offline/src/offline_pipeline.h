@@ -95,6 +95,8 @@ struct OfflineSummary {
   long vio_resets = 0;
   std::uint32_t vio_sessions = 0;
   double vio_td_s = 0.0;  ///< final camera-IMU time offset estimate
+  /// The estimated camera-IMU extrinsic against the YAML's (estimator.estimate_extrinsic only).
+  std::string vio_extrinsic;
   PoseGraphManagerStats pose_graph;
 };
 

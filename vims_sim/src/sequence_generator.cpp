@@ -312,8 +312,8 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
   const std::vector<FrameJob> jobs = frameJobs(periodNs(cfg.camera.rate_hz), duration_ns, opt.spans);
   const int threads =
       opt.render_threads > 0 ? opt.render_threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  FramePipeline pipeline(renderer, setup.trajectory, cfg.camera.T_b_c, jobs, deriveSeed(opt.seed, kStreamCameraNoise),
-                         threads);
+  FramePipeline pipeline(renderer, setup.trajectory, truth.trueCameraExtrinsic(cfg.camera.T_b_c), jobs,
+                         deriveSeed(opt.seed, kStreamCameraNoise), threads);
   MessageSchedule schedule(cfg, sensors.pressure.has_value(), jobs, delay_ns, duration_ns);
 
   GenerationStats stats;

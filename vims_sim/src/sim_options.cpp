@@ -129,6 +129,10 @@ void SimOptions::validate() const {
   }
   if (static_start < 0.0 || static_start >= duration) throw argError("--static-start", "must be in [0, duration)");
   if (std::abs(camera_delay) > 0.5) throw argError("--camera-delay", "must be within [-0.5, 0.5] seconds");
+  if (!(camera_extrinsic_error_deg >= 0.0 && camera_extrinsic_error_deg <= 10.0))
+    throw argError("--camera-extrinsic-error-deg", "must be within [0, 10] degrees");
+  if (!(camera_extrinsic_error_m >= 0.0 && camera_extrinsic_error_m <= 0.2))
+    throw argError("--camera-extrinsic-error-m", "must be within [0, 0.2] m");
   if (start_time < 1.0 || start_time + duration + 10.0 > 4.0e9) {
     throw argError("--start-time", "must be a positive bag-clock time that keeps all stamps below 4e9 s");
   }
@@ -224,6 +228,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.static_start = parseDouble(flag, value);
     } else if (flag == "--camera-delay") {
       options.camera_delay = parseDouble(flag, value);
+    } else if (flag == "--camera-extrinsic-error-deg") {
+      options.camera_extrinsic_error_deg = parseDouble(flag, value);
+    } else if (flag == "--camera-extrinsic-error-m") {
+      options.camera_extrinsic_error_m = parseDouble(flag, value);
     } else if (flag == "--camera-blackout") {
       options.spans.camera_blackout.push_back(parseSpan(flag, value));
     } else if (flag == "--camera-off") {
@@ -319,6 +327,9 @@ Options:
   --world-seed M           seabed texture, coil position, site geomagnetic field (default: N)
   --static-start SECONDS   initial rest phase (default 3)
   --camera-delay SECONDS   image header.stamp = true exposure time + delay (default 0, |d| <= 0.5)
+  --camera-extrinsic-error-deg DEG  the YAML's T_b_c is turned by DEG (0-10) about a seeded axis
+                           from the true one (an imperfect calibration; the truth file keeps both)
+  --camera-extrinsic-error-m M      ... and moved by M (0-0.2 m) in a seeded direction
   --camera-blackout A:B    frames in [A, B) are black: lamp failure, only sensor noise (repeatable)
   --camera-off A:B         no image messages in [A, B) (repeatable)
   --sonar-off A:B          no sonar messages in [A, B) (repeatable)

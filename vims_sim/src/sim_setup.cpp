@@ -24,6 +24,7 @@ enum : uint64_t {
   kStreamTerrainShape = 0x7e56,
   kStreamWater = 0x3a7e,
   kStreamPressureRig = 0x9b0e,
+  kStreamExtrinsicError = 0xe4c0,
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -182,6 +183,28 @@ SimSetup buildSimSetup(const SimOptions& options) {
   R_b_c_nominal << 0, -1, 0, -1, 0, 0, 0, 0, -1;
   cfg.camera.T_b_c = makeTransform(R_b_c_nominal * smallRotation(rig, 2.0 * kDeg),
                                    jitter(rig, Eigen::Vector3d(0.25, 0.0, -0.08), Eigen::Vector3d(0.03, 0.03, 0.02)));
+
+  if (options.camera_extrinsic_error_deg > 0.0 || options.camera_extrinsic_error_m > 0.0) {
+    // Its own stream, so the error changes nothing else of the sequence.
+    Rng error_rng(deriveSeed(options.seed, kStreamExtrinsicError));
+    const auto unitVector = [&]() {
+      Eigen::Vector3d v;
+      do {
+        v = Eigen::Vector3d(error_rng.gaussian(), error_rng.gaussian(), error_rng.gaussian());
+      } while (v.norm() < 1e-6);
+      return Eigen::Vector3d(v.normalized());
+    };
+    CameraExtrinsicError error;
+    error.rotation_deg = options.camera_extrinsic_error_deg;
+    error.translation_m = options.camera_extrinsic_error_m;
+    error.true_T_b_c = cfg.camera.T_b_c;
+    const Eigen::Vector3d axis = unitVector();
+    const Eigen::Vector3d direction = unitVector();
+    cfg.camera.T_b_c =
+        makeTransform(error.true_T_b_c.linear() * Eigen::AngleAxisd(error.rotation_deg * kDeg, axis).toRotationMatrix(),
+                      error.true_T_b_c.translation() + error.translation_m * direction);
+    setup.truth.camera_extrinsic_error = error;
+  }
 
   cfg.imu.rate_hz = setup.imu.rate_hz;
   cfg.imu.gyro_noise_density = setup.imu.gyro_noise_density;

@@ -26,6 +26,14 @@ std::string num(double v) {
 
 std::string vec(const Eigen::Vector3d& v) { return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]"; }
 
+/// The 16 numbers of the 4 x 4 matrix, row-major (as the sequence YAML's transforms).
+std::string transform16(const Eigen::Isometry3d& T) {
+  std::string out = "[";
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out += num(T.matrix()(r, c)) + (r == 3 && c == 3 ? "]" : ", ");
+  return out;
+}
+
 std::string quoted(const std::string& text) {
   std::string out = "\"";
   for (char ch : text) {
@@ -222,6 +230,13 @@ std::string SimTruth::toYaml() const {
   }
   if (depth_hold_z) os << "depth_hold_z: " << num(*depth_hold_z) << "  # [m] the body held this world z (depth hold)\n";
   if (hold_plane_only) os << "hold_plane_only: true  # the altitude hold followed the seabed's plane, not its relief\n";
+  if (camera_extrinsic_error) {
+    os << "camera_extrinsic_error:  # NAME.yaml's T_b_c is the true one turned by rotation_deg and moved by "
+          "translation_m\n"
+       << "  rotation_deg: " << num(camera_extrinsic_error->rotation_deg) << "\n"
+       << "  translation_m: " << num(camera_extrinsic_error->translation_m) << "\n"
+       << "  true_T_b_c: " << transform16(camera_extrinsic_error->true_T_b_c) << "\n";
+  }
   return os.str();
 }
 
@@ -236,7 +251,8 @@ SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
   root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
                           "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
-                          "dropouts", "terrain", "pressure", "depth_hold_z", "hold_plane_only"});
+                          "dropouts", "terrain", "pressure", "depth_hold_z", "hold_plane_only",
+                          "camera_extrinsic_error"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -298,6 +314,15 @@ SimTruth SimTruth::load(const std::string& path) {
   if (root.has("pressure")) t.pressure = readPressure(root);
   if (root.has("depth_hold_z")) t.depth_hold_z = root.get<double>("depth_hold_z");
   if (root.has("hold_plane_only")) t.hold_plane_only = root.get<bool>("hold_plane_only");
+  if (root.has("camera_extrinsic_error")) {
+    const ConfigReader e = root.child("camera_extrinsic_error");
+    e.rejectUnknownKeys({"rotation_deg", "translation_m", "true_T_b_c"});
+    CameraExtrinsicError error;
+    error.rotation_deg = e.get<double>("rotation_deg");
+    error.translation_m = e.get<double>("translation_m");
+    error.true_T_b_c = e.getTransform("true_T_b_c");
+    t.camera_extrinsic_error = error;
+  }
   return t;
 }
 

@@ -530,3 +530,40 @@ TEST(SimSetup, PressureSensorFollowsTheContractAndLeavesTheRigAlone) {
   EXPECT_GE(with_pressure.truth.pressure->water.surface_z, 27.0);
   EXPECT_LE(with_pressure.truth.pressure->water.surface_z, 33.0);
 }
+
+namespace vims {
+namespace sim {
+namespace {
+
+TEST(SimSetup, ACameraExtrinsicErrorIsInTheYamlAndTheTruthKeepsTheTrueOne) {
+  SimOptions options;
+  options.duration = 30;
+  options.seed = 4;
+  options.out_dir = "/tmp/x/calib";
+  const SimSetup exact = buildSimSetup(options);
+  options.camera_extrinsic_error_deg = 1.0;
+  options.camera_extrinsic_error_m = 0.01;
+  const SimSetup off = buildSimSetup(options);
+  ASSERT_TRUE(off.truth.camera_extrinsic_error.has_value());
+  EXPECT_FALSE(exact.truth.camera_extrinsic_error.has_value());
+  const Eigen::Isometry3d& truth = off.truth.camera_extrinsic_error->true_T_b_c;
+  EXPECT_TRUE(truth.isApprox(exact.config.camera.T_b_c, 1e-15));  // the rig is the same
+  EXPECT_TRUE(off.truth.trueCameraExtrinsic(off.config.camera.T_b_c).isApprox(truth, 1e-15));
+  const double angle = Eigen::AngleAxisd(truth.linear().transpose() * off.config.camera.T_b_c.linear()).angle();
+  EXPECT_NEAR(angle * 180.0 / M_PI, 1.0, 1e-9);
+  EXPECT_NEAR((off.config.camera.T_b_c.translation() - truth.translation()).norm(), 0.01, 1e-12);
+  // Nothing else of the sequence changes, and the truth file keeps the error.
+  EXPECT_TRUE(off.config.sonar.T_b_s.isApprox(exact.config.sonar.T_b_s, 0.0));
+  const fs::path path = tempPath("vims_truth_calib") += ".yaml";
+  off.truth.save(path.string());
+  const SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  ASSERT_TRUE(loaded.camera_extrinsic_error.has_value());
+  EXPECT_EQ(loaded.camera_extrinsic_error->rotation_deg, 1.0);
+  EXPECT_EQ(loaded.camera_extrinsic_error->translation_m, 0.01);
+  EXPECT_TRUE(loaded.camera_extrinsic_error->true_T_b_c.isApprox(truth, 1e-15));
+}
+
+}  // namespace
+}  // namespace sim
+}  // namespace vims

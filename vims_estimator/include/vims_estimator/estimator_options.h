@@ -103,6 +103,15 @@ struct EstimatorOptions {
   /// at 5 and 10 px/s, -1.8 / +27.4 ms at 20, -1.5 / +17.4 ms at 40 (fewer windows inform td).
   double td_min_image_speed_px_s = 10.0;
 
+  // ---- camera-IMU extrinsic ----
+  /// Refine the camera-IMU extrinsic T_b_c online (as VINS-Mono's estimate_extrinsic): it is a
+  /// state of every window solve, with a prior at the sequence YAML's value of these sigmas, and
+  /// its information is carried in the marginalisation prior. The estimate is logged every 30 s
+  /// and written to summary.yaml (vio.T_b_c and its difference from the YAML's).
+  bool estimate_extrinsic = false;
+  double extrinsic_prior_rotation_rad = 2.0 * M_PI / 180.0;  ///< key extrinsic_prior_rotation_deg
+  double extrinsic_prior_translation_m = 0.03;
+
   // ---- initialisation ----
   /// [s] Accelerometer averaging window for gravity at initialisation (before the first frame):
   /// 1 s averages the accelerometer white noise down by sqrt(200) at 200 Hz.

@@ -24,6 +24,7 @@ class LossFunction;
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "vims_common/keyframe_data.h"
@@ -96,6 +97,10 @@ struct SeabedFix {
   Eigen::Vector2d slope = Eigen::Vector2d::Zero();  ///< seabed gradient there (local_plane model)
 };
 
+/// "rotation D deg, translation T m from the sequence YAML's; T_b_c = [16 numbers]": how an
+/// estimated camera extrinsic differs from the calibration (log lines, summary.yaml).
+std::string extrinsicChange(const Eigen::Isometry3d& yaml_T_b_c, const Eigen::Isometry3d& estimated_T_b_c);
+
 class VioEstimator {
  public:
   /// Throws std::invalid_argument for unusable calibration (e.g. IMU noise not > 0).
@@ -127,6 +132,9 @@ class VioEstimator {
   long resets() const { return resets_; }
   bool initialized() const { return !frames_.empty(); }
   double td() const { return td_[0]; }
+  /// The camera-IMU extrinsic in use: the sequence YAML's, or its online estimate
+  /// (EstimatorOptions::estimate_extrinsic).
+  Eigen::Isometry3d extrinsicCamera() const;
   const EstimatorOptions& options() const { return options_; }
   /// Drops the window and starts a new session at the next frame.
   void reset(const std::string& why);
@@ -182,7 +190,6 @@ class VioEstimator {
   /// Gyroscope reading at t (linear interpolation of the buffered samples; nearest at the ends).
   Eigen::Vector3d gyroAt(double t) const;
   static bool priorTouches(const MarginalizationPrior& prior, const Frame* frame);
-  Eigen::Isometry3d extrinsicCamera() const;
 
   SequenceConfig sequence_;
   EstimatorOptions options_;
@@ -252,7 +259,8 @@ class VioEstimator {
   bool session_started_ = false;
   double last_good_tracking_t_ = 0.0;
   double last_frame_stamp_ = -1e300;
-  double last_td_log_t_ = -1e300;  ///< stamp of the last td log line (estimate_td)
+  double last_td_log_t_ = -1e300;         ///< stamp of the last td log line (estimate_td)
+  double last_extrinsic_log_t_ = -1e300;  ///< stamp of the last extrinsic log line (estimate_extrinsic)
 
   std::vector<VioFrameResult> results_;
   std::vector<KeyframeData> keyframes_;

@@ -49,6 +49,10 @@ struct SimOptions {
   std::string name;           ///< default: basename of out_dir
   double static_start = 3.0;  ///< [s]
   double camera_delay = 0.0;  ///< [s] image stamp = exposure time + delay
+  /// Imperfect calibration: the sequence YAML's T_b_c is the true one turned by this angle about
+  /// a seeded axis and moved by this distance in a seeded direction (the truth file keeps both).
+  double camera_extrinsic_error_deg = 0.0;
+  double camera_extrinsic_error_m = 0.0;
   DropoutSpans spans;
   double start_time = 1700000000.0;  ///< bag-clock time of the sequence start [s]
   bool lz4 = false;                  ///< lz4-compressed bag chunks

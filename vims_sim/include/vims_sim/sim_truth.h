@@ -53,6 +53,13 @@ struct PressureTruth {
   double spike_max_pa = 0.0;
 };
 
+/// An imperfect camera calibration: the sequence YAML's T_b_c is true_T_b_c turned and moved.
+struct CameraExtrinsicError {
+  double rotation_deg = 0.0;   ///< angle between the YAML's and the true camera rotation
+  double translation_m = 0.0;  ///< distance between the YAML's and the true camera position
+  Eigen::Isometry3d true_T_b_c = Eigen::Isometry3d::Identity();
+};
+
 struct SimTruth {
   std::string generator = "vims_sim";
   std::string scenario;            ///< "tank" or "field"
@@ -79,6 +86,14 @@ struct SimTruth {
   std::optional<PressureTruth> pressure;  ///< set when the sequence has a pressure sensor
   std::optional<double> depth_hold_z;     ///< [m] set when the vehicle held a constant z instead of its altitude
   bool hold_plane_only = false;           ///< the altitude hold followed the seabed's plane, not its relief
+  /// Set when the sequence YAML's T_b_c is not the true one (vims_sim --camera-extrinsic-error-*).
+  std::optional<CameraExtrinsicError> camera_extrinsic_error;
+
+  /// The camera extrinsic the images were rendered with: the true one, or the YAML's `T_b_c`
+  /// when the sequence has no calibration error.
+  Eigen::Isometry3d trueCameraExtrinsic(const Eigen::Isometry3d& yaml_T_b_c) const {
+    return camera_extrinsic_error ? camera_extrinsic_error->true_T_b_c : yaml_T_b_c;
+  }
 
   /// YAML text (numbers with round-trip precision).
   std::string toYaml() const;
