@@ -127,9 +127,10 @@ const OdometryDriftFit& MultiScaleMap::learnOdometryDrift() {
   std::vector<SequentialEdge> edges;
   edges.reserve(run_edges.size());
   for (size_t k : run_edges) edges.push_back(sequential_edges_[k]);
+  const OdometryDriftScale before = drift_.fit().scale;
   const OdometryDriftFit& fit = drift_.update(edges, loop_edges_);
-  // Re-weigh the run's edges (the fit is 1, 1 until enough events): a loaded session's edges keep
-  // the weights of the run that recorded them.
+  if (fit.scale.position == before.position && fit.scale.yaw == before.yaw) return fit;  // most loops
+  // Re-weigh the run's edges: a loaded session's edges keep the weights of the run that recorded them.
   for (size_t k : run_edges)
     sequential_edges_[k].sqrt_information =
         sequentialEdgeSqrtInformation(graph_options_, sequential_edges_[k].measurement, fit.scale);
