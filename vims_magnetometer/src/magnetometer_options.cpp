@@ -52,6 +52,9 @@ const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
           .integer("geomagnetic_min_periods", &O::geomagnetic_min_periods, Bounds::closed(1, 1000))
           .number("geomagnetic_output_period_s", &O::geomagnetic_output_period_s, Bounds::positive())
           .number("max_fill_gap_s", &O::max_fill_gap_s, Bounds::nonNegative())
+          .number("frequency_tracking_time_constant_s", &O::frequency_tracking_time_constant_s,
+                  Bounds::closed(0.0, 1e5))
+          .number("frequency_tracking_max_offset_hz", &O::frequency_tracking_max_offset_hz, Bounds::closed(0.0, 10.0))
           .section<AttitudeFilterOptions>("attitude", &O::attitude, AttitudeFilterOptions::optionTable())
           .section<CoilSearchOptions>("coil_search", &O::coil_search, CoilSearchOptions::optionTable())
           .rule([](const O& o) {
@@ -93,6 +96,12 @@ void MagnetometerOptions::validateFor(const MagnetometerCalibration& cal, const 
       cal.coil_frequency_hz + snr_outer_bins * bin >= 0.5 * cal.rate_hz) {
     throw reader.error("snr_outer_bins", "puts neighbouring bins outside (0, Nyquist) for a " +
                                              std::to_string(cal.coil_frequency_hz) + " Hz coil");
+  }
+  const double tracked = frequency_tracking_time_constant_s > 0.0 ? frequency_tracking_max_offset_hz : 0.0;
+  if (cal.coil_frequency_hz - tracked - snr_outer_bins * bin <= 0.0 ||
+      cal.coil_frequency_hz + tracked + snr_outer_bins * bin >= 0.5 * cal.rate_hz) {
+    throw reader.error("frequency_tracking_max_offset_hz", "lets the neighbouring bins leave (0, Nyquist) for a " +
+                                                               std::to_string(cal.coil_frequency_hz) + " Hz coil");
   }
   const double ma_s = geomagnetic_min_periods / cal.coil_frequency_hz;
   if (ma_s > 30.0) {

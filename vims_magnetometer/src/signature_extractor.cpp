@@ -3,12 +3,23 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <iomanip>
 
 namespace vims {
 namespace {
 constexpr const char* kComponent = "mag_signature";
 /// An SNR with (numerically) no noise at all is reported as this instead of infinity.
 constexpr double kMaxSnr = 1e12;
+// Frequency-tracking probes this many bins either side of the coil's: inside the Hann main lobe
+// (+-2 bins), where its log is nearly a parabola, and far enough apart to read its slope.
+constexpr double kProbeBins = 0.5;
+// A moving average over whole periods of f0 leaves a fraction ~|f - f0| / f0 of a coil at f in
+// the geomagnetic estimate, and so takes it from the alternating field; past 0.5 % it is rebuilt
+// for the tracked frequency (0.055 Hz at 11 Hz: a 0.1 Hz drift costs two 3 s refills).
+constexpr double kMovingAverageRebuildFraction = 0.005;
+// Only windows this many times above min_snr move the frequency: there the coil dominates its
+// bin by 30 dB, so a weaker line passing close (a thruster's) cannot drag the tracking along.
+constexpr double kTrackingSnrFactor = 10.0;
 
 /// The extractor is built for one known frequency (MagneticFrontEnd finds an unknown one first).
 double knownCoilFrequency(const MagnetometerCalibration& calibration) {
@@ -56,10 +67,19 @@ SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const
     hann_sum_ += hann_[n];
   }
   const double window_s = static_cast<double>(window_samples_) / calibration_.rate_hz;
-  frequencies_.push_back(calibration_.coil_frequency_hz);
+  nominal_frequency_hz_ = calibration_.coil_frequency_hz;
+  frequency_hz_ = nominal_frequency_hz_;
+  moving_average_frequency_hz_ = nominal_frequency_hz_;
+  stats_.frequency_hz = frequency_hz_;
+  offsets_.push_back(0.0);
   for (int k = options_.snr_inner_bins; k <= options_.snr_outer_bins; ++k) {
-    frequencies_.push_back(calibration_.coil_frequency_hz - k / window_s);
-    frequencies_.push_back(calibration_.coil_frequency_hz + k / window_s);
+    offsets_.push_back(-k / window_s);
+    offsets_.push_back(k / window_s);
+  }
+  noise_bins_ = offsets_.size() - 1;
+  if (options_.frequency_tracking_time_constant_s > 0.0) {
+    offsets_.push_back(-kProbeBins / window_s);
+    offsets_.push_back(kProbeBins / window_s);
   }
   raw_.resize(moving_average_.samples);
   alt_.resize(window_samples_);
@@ -82,6 +102,16 @@ void SignatureExtractor::reset() {
 void SignatureExtractor::feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
                                  std::vector<GeomagneticSample>* geomagnetic) {
   ++stats_.mag_samples;
+  if (rebuild_moving_average_) {
+    rebuild_moving_average_ = false;
+    moving_average_frequency_hz_ = frequency_hz_;
+    moving_average_ = chooseMovingAverage(calibration_.rate_hz, frequency_hz_, options_.geomagnetic_min_periods);
+    raw_.assign(moving_average_.samples, RawSlot{});
+    reset();
+    logger_->info(kComponent,
+                  VIMS_STR(std::fixed << std::setprecision(4) << "coil frequency tracked to " << frequency_hz_
+                                      << " Hz: moving average rebuilt (" << moving_average_.samples << " samples)"));
+  }
   const double t = sample.t;
   if (!std::isfinite(t)) {
     logger_->warnThrottled(kComponent, "stamp", have_last_t_ ? last_t_ : 0.0, 5.0,
@@ -183,21 +213,41 @@ void SignatureExtractor::pushAlt(const AltSlot& slot, std::vector<SignatureWindo
   alt_[alt_count_ % window_samples_] = slot;
   ++alt_count_;
   if (alt_count_ < window_samples_ || (alt_count_ - window_samples_) % hop_samples_ != 0) return;
-  const SignatureWindow sig = computeWindow();
+  double peak_offset_hz = 0.0;
+  const SignatureWindow sig = computeWindow(&peak_offset_hz);
   ++stats_.windows;
-  if (sig.valid) ++stats_.valid_windows;
+  if (sig.valid) {
+    ++stats_.valid_windows;
+    if (sig.snr >= kTrackingSnrFactor * options_.min_snr) trackFrequency(peak_offset_hz);
+  }
   if (signatures) signatures->push_back(sig);
 }
 
-SignatureWindow SignatureExtractor::computeWindow() const {
+void SignatureExtractor::trackFrequency(double peak_offset_hz) {
+  if (options_.frequency_tracking_time_constant_s <= 0.0) return;
+  // A first-order loop: the peak offset decays with the time constant; a drift of r Hz/s leaves
+  // a lag of r * time constant (0.1 Hz over 10 minutes: 2 mHz at 10 s).
+  const double gain = std::min(1.0, options_.hop_s / options_.frequency_tracking_time_constant_s);
+  const double max = options_.frequency_tracking_max_offset_hz;
+  frequency_hz_ =
+      std::clamp(frequency_hz_ + gain * peak_offset_hz, nominal_frequency_hz_ - max, nominal_frequency_hz_ + max);
+  stats_.frequency_hz = frequency_hz_;
+  if (std::abs(frequency_hz_ - moving_average_frequency_hz_) >
+      kMovingAverageRebuildFraction * moving_average_frequency_hz_)
+    rebuild_moving_average_ = true;
+}
+
+SignatureWindow SignatureExtractor::computeWindow(double* peak_offset_hz) const {
   const int W = window_samples_;
   const long first = alt_count_ - W;  // index of the oldest slot in the window
-  const std::size_t n_freq = frequencies_.size();
+  const std::size_t n_freq = offsets_.size();
+  std::vector<double> frequencies(n_freq);
+  for (std::size_t k = 0; k < n_freq; ++k) frequencies[k] = frequency_hz_ + offsets_[k];
   // Goertzel state per frequency and axis: s1, s2.
   std::vector<Eigen::Vector3d> s1(n_freq, Eigen::Vector3d::Zero()), s2(n_freq, Eigen::Vector3d::Zero());
   std::vector<double> coeff(n_freq);
   for (std::size_t k = 0; k < n_freq; ++k) {
-    coeff[k] = 2.0 * std::cos(2.0 * M_PI * frequencies_[k] / calibration_.rate_hz);
+    coeff[k] = 2.0 * std::cos(2.0 * M_PI * frequencies[k] / calibration_.rate_hz);
   }
   unsigned flags = 0;
   Eigen::Vector3d geo_sum = Eigen::Vector3d::Zero();
@@ -219,7 +269,7 @@ SignatureWindow SignatureExtractor::computeWindow() const {
   // Goertzel output y = s1 - e^{-jw} s2 equals the DTFT up to a phase common to all axes, which
   // cancels in the relative phases below.
   auto dtft = [&](std::size_t k, int axis) {
-    const double w = 2.0 * M_PI * frequencies_[k] / calibration_.rate_hz;
+    const double w = 2.0 * M_PI * frequencies[k] / calibration_.rate_hz;
     return std::complex<double>(s1[k][axis] - std::cos(w) * s2[k][axis], std::sin(w) * s2[k][axis]);
   };
   std::complex<double> X[3];
@@ -231,10 +281,23 @@ SignatureWindow SignatureExtractor::computeWindow() const {
     if (std::abs(X[a]) > std::abs(X[dominant])) dominant = a;
   }
   double noise_power = 0.0;
-  for (std::size_t k = 1; k < n_freq; ++k) {
+  for (std::size_t k = 1; k <= noise_bins_; ++k) {
     for (int a = 0; a < 3; ++a) noise_power += std::norm(dtft(k, a));
   }
-  noise_power /= static_cast<double>(n_freq - 1);
+  noise_power /= static_cast<double>(noise_bins_);
+  *peak_offset_hz = 0.0;
+  if (n_freq == noise_bins_ + 3) {
+    // The peak of the summed power from the coil's bin and the probes at +-d: a parabola through
+    // the log powers (the Hann main lobe is nearly Gaussian there), exact when the peak is at 0.
+    double probe[2] = {0.0, 0.0};
+    for (int side = 0; side < 2; ++side)
+      for (int a = 0; a < 3; ++a) probe[side] += std::norm(dtft(noise_bins_ + 1 + side, a));
+    const double y0 = std::log(coil_power), ym = std::log(probe[0]), yp = std::log(probe[1]);
+    const double curvature = 2.0 * y0 - ym - yp;
+    const double d = offsets_[noise_bins_ + 2];
+    if (std::isfinite(curvature) && curvature > 0.0 && std::isfinite(yp - ym))
+      *peak_offset_hz = std::clamp(0.5 * d * (yp - ym) / curvature, -d, d);
+  }
 
   SignatureWindow sig;
   const AltSlot& oldest = alt_[first % W];
@@ -242,7 +305,7 @@ SignatureWindow SignatureExtractor::computeWindow() const {
   sig.t_start = oldest.t;
   sig.t_end = newest.t;
   sig.t = 0.5 * (oldest.t + newest.t);
-  sig.frequency_hz = calibration_.coil_frequency_hz;
+  sig.frequency_hz = frequency_hz_;
   const double dominant_abs = std::abs(X[dominant]);
   if (dominant_abs > 0.0) {
     const std::complex<double> reference = std::conj(X[dominant]) / dominant_abs;

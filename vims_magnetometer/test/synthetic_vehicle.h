@@ -51,9 +51,10 @@ inline Motion turnInPlace(const Eigen::Vector3d& p, double yaw0, double yaw_rate
 
 struct World {
   Eigen::Vector3d coil_w{0.0, 0.0, 0.0};
-  double coil_moment = 270.0;    // peak dipole moment along +z [A m^2]
-  double coil_frequency = 11.0;  // [Hz]
-  double coil_phase = 0.4;       // [rad]
+  double coil_moment = 270.0;        // peak dipole moment along +z [A m^2]
+  double coil_frequency = 11.0;      // [Hz]
+  double coil_phase = 0.4;           // [rad]
+  double coil_frequency_rate = 0.0;  // [Hz/s] a drifting coil: f(tau) = coil_frequency + rate tau
   double declination_deg = 5.0;
   double inclination_deg = 46.0;
   double total_field = 49e-6;  // [T]
@@ -104,7 +105,9 @@ inline Streams generate(const Motion& motion, const World& world, double t0, dou
     const double tau = k / 1000.0;
     const Eigen::Matrix3d R_w_b = motion.q_w_b(tau).toRotationMatrix();
     const Eigen::Vector3d B_w =
-        B_e + world.coilPeak(motion.p_w_b(tau)) * std::sin(2 * M_PI * world.coil_frequency * tau + world.coil_phase);
+        B_e + world.coilPeak(motion.p_w_b(tau)) *
+                  std::sin(2 * M_PI * (world.coil_frequency + 0.5 * world.coil_frequency_rate * tau) * tau +
+                           world.coil_phase);
     vims::MagSample mag;
     mag.t = t0 + tau;
     mag.field =

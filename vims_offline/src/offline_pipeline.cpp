@@ -430,7 +430,8 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   out << "magnetometer: {samples: " << s.magnetometer.mag_samples << ", windows: " << s.magnetometer.windows
       << ", valid_windows: " << s.magnetometer.valid_windows << ", resets: " << s.magnetometer.resets
       << ", nonfinite: " << s.magnetometer.nonfinite << ", duplicates: " << s.magnetometer.duplicates
-      << ", coil_frequency_hz: " << s.coil_frequency_hz << "}\n";
+      << ", coil_frequency_hz: " << s.coil_frequency_hz << ", tracked_frequency_hz: " << s.magnetometer.frequency_hz
+      << "}\n";
   out << "mode: " << options_.mode << (options_.vio_only ? "\nvio_only: true" : "") << "\n";
   out << "vio: {frames: " << s.vio_frames << ", keyframes: " << s.vio_keyframes << ", resets: " << s.vio_resets
       << ", sessions: " << s.vio_sessions << ", td_s: " << s.vio_td_s << "}\n";
@@ -440,8 +441,8 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", culled_submaps: " << pg.culled_submaps << ", sessions: " << pg.sessions
       << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
       << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
-      << ", magnetic_submaps: " << pg.magnetic_submaps << ", optimisations: " << pg.optimisations
-      << ", relocalised: " << (pg.relocalised ? "true" : "false") << "}\n";
+      << ", yaw_rejected: " << pg.yaw_rejected << ", magnetic_submaps: " << pg.magnetic_submaps
+      << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false") << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99
       << ", magnetometer_p50: " << s.magnetometer_ms_p50 << ", magnetometer_p99: " << s.magnetometer_ms_p99

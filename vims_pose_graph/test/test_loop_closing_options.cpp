@@ -134,6 +134,9 @@ TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
                 .find("loop_closing.redundant_submap_max_height_difference_m"),
             std::string::npos);
   EXPECT_NE(error("magnetic_submaps: {max_radius_m: -1}").find("magnetic_submaps.max_radius_m"), std::string::npos);
+  EXPECT_NE(error("geomagnetic_gate: {inclination_deg: 0}").find("geomagnetic_gate.inclination_deg"),
+            std::string::npos);
+  EXPECT_NE(error("geomagnetic_gate: {min_samples: 2}").find("geomagnetic_gate.min_samples"), std::string::npos);
   EXPECT_NE(error("features: {descriptor: brief}").find("features.descriptor"), std::string::npos);
   EXPECT_NE(error("pose_graph: {loop_loss: l2}").find("pose_graph.loop_loss"), std::string::npos);
   EXPECT_NE(error("vocabulary_orb: ''").find("vocabulary_orb"), std::string::npos);

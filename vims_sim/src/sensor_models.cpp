@@ -121,21 +121,19 @@ PressureReading PressureSimulator::measure(const Eigen::Isometry3d& T_w_b) {
 }
 
 MagnetometerSimulator::MagnetometerSimulator(const MagnetometerParams& params, const Eigen::Isometry3d& T_b_m,
-                                             const GeomagneticField& geomagnetic, const CoilDipole& coil, uint64_t seed)
-    : params_(params), T_b_m_(T_b_m), geomagnetic_enu_(geomagnetic.fieldEnu()), coil_(coil), rng_(seed) {}
+                                             MagneticWorld world, uint64_t seed)
+    : params_(params), T_b_m_(T_b_m), world_(std::move(world)), rng_(seed) {}
 
 Eigen::Vector3d MagnetometerSimulator::trueField(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_m,
-                                                 const Eigen::Vector3d& geomagnetic_enu, const CoilDipole& coil,
-                                                 double t) {
+                                                 const MagneticWorld& world, double t) {
   const Eigen::Isometry3d T_w_m = T_w_b * T_b_m;
-  const Eigen::Vector3d field_w = geomagnetic_enu + coil.field(T_w_m.translation(), t);
-  return T_w_m.linear().transpose() * field_w;
+  return T_w_m.linear().transpose() * world.fieldEnu(T_w_m.translation(), t);
 }
 
 Eigen::Vector3d MagnetometerSimulator::measure(const Eigen::Isometry3d& T_w_b, double t) {
   const double s = params_.noise_std;
   const Eigen::Vector3d noise(rng_.gaussian(s), rng_.gaussian(s), rng_.gaussian(s));
-  return trueField(T_w_b, T_b_m_, geomagnetic_enu_, coil_, t) + noise;
+  return trueField(T_w_b, T_b_m_, world_, t) + noise;
 }
 
 }  // namespace sim

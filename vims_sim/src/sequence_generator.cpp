@@ -299,7 +299,7 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
   GridSensors sensors{
       ImuSimulator(setup.imu, truth.gyro_bias, truth.accel_bias, deriveSeed(opt.seed, kStreamImuNoise)),
       SonarSimulator(setup.sonar, cfg.sonar.T_b_s, deriveSeed(opt.seed, kStreamSonarNoise), setup.terrain),
-      MagnetometerSimulator(setup.magnetometer, cfg.magnetometer.T_b_m, truth.geomagnetic, truth.coil,
+      MagnetometerSimulator(setup.magnetometer, cfg.magnetometer.T_b_m, truth.magneticWorld(),
                             deriveSeed(opt.seed, kStreamMagNoise)),
       std::nullopt};
 

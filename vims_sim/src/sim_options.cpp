@@ -159,6 +159,13 @@ void SimOptions::validate() const {
   if (coil_frequency_hz >= 0.45 * rates.magnetometer) {
     throw argError("--coil-frequency", "must be below 0.45 x the magnetometer's rate (--mag-rate-hz)");
   }
+  requireInRange("--coil-frequency-drift-hz", coil_frequency_drift_hz, -2.0, 2.0, "Hz");
+  if (coil_frequency_hz + coil_frequency_drift_hz < 2.0 ||
+      coil_frequency_hz + coil_frequency_drift_hz >= 0.45 * rates.magnetometer)
+    throw argError("--coil-frequency-drift-hz",
+                   "takes the coil's frequency out of [2 Hz, 0.45 x the magnetometer's rate)");
+  requireInRange("--magnetic-anomaly-ut", magnetic_anomaly_ut, 0.0, 50.0, "uT");
+  requireInRange("--magnetic-anomaly-width-m", magnetic_anomaly_width_m, 2.0, 50.0, "m");
 
   requireInRange("--pressure-rate-hz", pressure.rate_hz, 1.0, 50.0, "Hz");
   requireInRange("--pressure-atmospheric-error-pa", pressure.atmospheric_error_pa, -2.0e4, 2.0e4, "Pa");
@@ -274,6 +281,12 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.pressure.spike_fraction = parseDouble(flag, value);
     } else if (flag == "--coil-frequency") {
       options.coil_frequency_hz = parseDouble(flag, value);
+    } else if (flag == "--coil-frequency-drift-hz") {
+      options.coil_frequency_drift_hz = parseDouble(flag, value);
+    } else if (flag == "--magnetic-anomaly-ut") {
+      options.magnetic_anomaly_ut = parseDouble(flag, value);
+    } else if (flag == "--magnetic-anomaly-width-m") {
+      options.magnetic_anomaly_width_m = parseDouble(flag, value);
     } else if (flag == "--camera-rate-hz") {
       options.rates.camera = parseDouble(flag, value);
     } else if (flag == "--imu-rate-hz") {
@@ -341,6 +354,12 @@ Options:
   --coil-frequency HZ      the seabed coil's frequency, 2-200 Hz (default 11, the paper's)
   --coil-frequency-unknown the sequence YAML says coil_frequency_hz: null (contract v2: VIMS finds
                            it from the data); the truth file keeps it
+  --coil-frequency-drift-hz D  the coil's frequency drifts linearly by D Hz (|D| <= 2) over the
+                           sequence; the YAML states the frequency at the start
+  --magnetic-anomaly-ut UT a static geomagnetic anomaly (buried steel, magnetised along the site's
+                           field) under the vehicle's mid-mission position, UT (0-50) at the vehicle
+                           (default 0: none); the truth file keeps it
+  --magnetic-anomaly-width-m M  its width (2-50 m, default 10): the dipole lies M/2 below the vehicle
   --camera-rate-hz HZ      image rate, 5-30 (default 10)
   --imu-rate-hz HZ         IMU rate, 100-1000 (default 200; the noise densities stay the same)
   --sonar-rate-hz HZ       sonar rate, 1-20 (default 10)

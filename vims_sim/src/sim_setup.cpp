@@ -266,7 +266,16 @@ SimSetup buildSimSetup(const SimOptions& options) {
   truth.coil = site.coil;
   Rng phase_rng(deriveSeed(options.seed, kStreamCoilPhase));
   truth.coil.phase = phase_rng.uniform(0.0, 2.0 * M_PI);  // the coil runs freely: its phase differs per dive
+  truth.coil.frequency_rate = options.coil_frequency_drift_hz / options.duration;
   truth.geomagnetic = site.geomagnetic;
+  if (options.magnetic_anomaly_ut > 0.0) {
+    // Under the vehicle's mid-mission position, so the mission crosses it; buried half its width
+    // below the vehicle, so the field falls to a third of its peak about that far to the side.
+    const double t_mid = options.static_start + 0.5 * (options.duration - options.static_start);
+    truth.magnetic_anomaly =
+        MagneticAnomaly::induced(setup.trajectory.pose(t_mid).translation(), 0.5 * options.magnetic_anomaly_width_m,
+                                 options.magnetic_anomaly_ut * 1e-6, site.geomagnetic.fieldEnu());
+  }
   Rng bias_rng(deriveSeed(options.seed, kStreamImuBias));
   for (int i = 0; i < 3; ++i) truth.gyro_bias[i] = bias_rng.gaussian(setup.imu.gyro_initial_bias_std);
   for (int i = 0; i < 3; ++i) truth.accel_bias[i] = bias_rng.gaussian(setup.imu.accel_initial_bias_std);

@@ -199,8 +199,11 @@ std::string SimTruth::toYaml() const {
      << "  current_a: " << num(coil.current) << "  # peak\n"
      << "  diameter_m: " << num(coil.diameter) << "\n"
      << "  frequency_hz: " << num(coil.frequency) << "\n"
-     << "  phase_rad: " << num(coil.phase) << "\n"
-     << "geomagnetic:\n"
+     << "  phase_rad: " << num(coil.phase) << "\n";
+  if (coil.frequency_rate != 0.0)
+    os << "  frequency_rate_hz_per_s: " << num(coil.frequency_rate)
+       << "  # a drifting coil: frequency_hz + rate (t - start_time), phase its integral\n";
+  os << "geomagnetic:\n"
      << "  field_enu: " << vec(geomagnetic.fieldEnu()) << "  # [T]\n"
      << "  total_t: " << num(geomagnetic.total) << "\n"
      << "  inclination_deg: " << num(geomagnetic.inclination_deg) << "  # positive: pointing down\n"
@@ -237,6 +240,11 @@ std::string SimTruth::toYaml() const {
        << "  translation_m: " << num(camera_extrinsic_error->translation_m) << "\n"
        << "  true_T_b_c: " << transform16(camera_extrinsic_error->true_T_b_c) << "\n";
   }
+  if (magnetic_anomaly) {
+    os << "magnetic_anomaly:  # a point dipole buried in the seabed; its static field adds to the geomagnetic one\n"
+       << "  position_enu: " << vec(magnetic_anomaly->position_w) << "  # [m] world ENU\n"
+       << "  moment_enu: " << vec(magnetic_anomaly->moment_enu) << "  # [A m^2]\n";
+  }
   return os.str();
 }
 
@@ -249,10 +257,26 @@ void SimTruth::save(const std::string& path) const {
 
 SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
-  root.rejectUnknownKeys({"generator", "scenario", "name", "trajectory_seed", "world_seed", "start_time", "duration",
-                          "static_start", "travel_m", "camera_time_delay", "coil", "geomagnetic", "imu_initial_bias",
-                          "dropouts", "terrain", "pressure", "depth_hold_z", "hold_plane_only",
-                          "camera_extrinsic_error"});
+  root.rejectUnknownKeys({"generator",
+                          "scenario",
+                          "name",
+                          "trajectory_seed",
+                          "world_seed",
+                          "start_time",
+                          "duration",
+                          "static_start",
+                          "travel_m",
+                          "camera_time_delay",
+                          "coil",
+                          "geomagnetic",
+                          "imu_initial_bias",
+                          "dropouts",
+                          "terrain",
+                          "pressure",
+                          "depth_hold_z",
+                          "hold_plane_only",
+                          "camera_extrinsic_error",
+                          "magnetic_anomaly"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -269,8 +293,8 @@ SimTruth SimTruth::load(const std::string& path) {
   t.camera_time_delay = root.get<double>("camera_time_delay");
 
   const ConfigReader coil = root.child("coil");
-  coil.rejectUnknownKeys(
-      {"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad"});
+  coil.rejectUnknownKeys({"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad",
+                          "frequency_rate_hz_per_s"});
   t.coil.position_w = readVec3(coil, "position_enu");
   t.coil.turns = coil.get<int>("turns");
   if (t.coil.turns <= 0) throw coil.error("turns", "must be > 0");
@@ -280,6 +304,7 @@ SimTruth SimTruth::load(const std::string& path) {
   t.coil.frequency = coil.get<double>("frequency_hz");
   requirePositive(coil, "frequency_hz", t.coil.frequency);
   t.coil.phase = coil.get<double>("phase_rad");
+  if (coil.has("frequency_rate_hz_per_s")) t.coil.frequency_rate = coil.get<double>("frequency_rate_hz_per_s");
   if ((readVec3(coil, "moment_enu") - t.coil.peakMoment()).norm() > 1e-9 * (1.0 + t.coil.peakMoment().norm())) {
     throw coil.error("moment_enu", "inconsistent with turns, current_a and diameter_m");
   }
@@ -322,6 +347,11 @@ SimTruth SimTruth::load(const std::string& path) {
     error.translation_m = e.get<double>("translation_m");
     error.true_T_b_c = e.getTransform("true_T_b_c");
     t.camera_extrinsic_error = error;
+  }
+  if (root.has("magnetic_anomaly")) {
+    const ConfigReader a = root.child("magnetic_anomaly");
+    a.rejectUnknownKeys({"position_enu", "moment_enu"});
+    t.magnetic_anomaly = MagneticAnomaly{readVec3(a, "position_enu"), readVec3(a, "moment_enu")};
   }
   return t;
 }

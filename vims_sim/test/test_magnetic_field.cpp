@@ -128,12 +128,54 @@ TEST(Magnetometer, MeasuresTheFieldInItsOwnFrame) {
   const double t = 0.0123;
   const Eigen::Isometry3d T_w_m = T_w_b * T_b_m;
   const Eigen::Vector3d expected = T_w_m.linear().transpose() * (geo.fieldEnu() + coil.field(T_w_m.translation(), t));
-  EXPECT_LT((MagnetometerSimulator::trueField(T_w_b, T_b_m, geo.fieldEnu(), coil, t) - expected).norm(), 1e-18);
+  const MagneticWorld world{geo.fieldEnu(), coil, std::nullopt};
+  EXPECT_LT((MagnetometerSimulator::trueField(T_w_b, T_b_m, world, t) - expected).norm(), 1e-18);
   // Noise: 5 nT per axis and sample.
   MagnetometerParams params;
-  MagnetometerSimulator mag(params, T_b_m, geo, coil, 42);
+  MagnetometerSimulator mag(params, T_b_m, world, 42);
   double sum2 = 0.0;
   const int n = 20000;
   for (int i = 0; i < n; ++i) sum2 += (mag.measure(T_w_b, t) - expected).squaredNorm();
   EXPECT_NEAR(std::sqrt(sum2 / (3.0 * n)), 5e-9, 0.1e-9);
+}
+
+TEST(MagneticAnomaly, InducedAlongTheFieldWithTheRequestedPeakAndAnInverseCubeFalloff) {
+  GeomagneticField geo;
+  geo.declination_deg = -4.0;
+  const Eigen::Vector3d above(3.0, -2.0, 1.5);
+  const MagneticAnomaly a = MagneticAnomaly::induced(above, 5.0, 2.0e-6, geo.fieldEnu());
+  EXPECT_LT((a.position_w - Eigen::Vector3d(3.0, -2.0, -3.5)).norm(), 1e-12);
+  EXPECT_NEAR(a.moment_enu.normalized().dot(geo.fieldEnu().normalized()), 1.0, 1e-12);
+  EXPECT_NEAR(a.field(above).norm(), 2.0e-6, 1e-15);
+  // Twice as far along the same ray: an eighth of the field, same direction.
+  const Eigen::Vector3d farther = a.position_w + 2.0 * (above - a.position_w);
+  EXPECT_LT((a.field(farther) * 8.0 - a.field(above)).norm(), 1e-15);
+  // The world adds it to the constant geomagnetic field; 500 m away it is down by (5/500)^3 = 1e-6.
+  const MagneticWorld world{geo.fieldEnu(), CoilDipole{}, a};
+  const Eigen::Vector3d far_away(400.0, 300.0, 1.5);
+  EXPECT_LT((world.fieldEnu(far_away, 0.0) - geo.fieldEnu() - world.coil.field(far_away, 0.0)).norm(), 4e-12);
+}
+
+TEST(CoilDipole, ADriftingCoilsPhaseIsTheIntegralOfItsFrequency) {
+  CoilDipole coil;
+  coil.frequency = 11.0;
+  coil.frequency_rate = 0.1 / 600.0;  // +0.1 Hz over ten minutes
+  coil.phase = 0.3;
+  // Zero crossings going up, found by bisection, are one period of the instantaneous frequency apart.
+  auto upCrossingAfter = [&](double t) {
+    double lo = t, step = 1e-3;
+    while (!(coil.waveform(lo) < 0.0 && coil.waveform(lo + step) >= 0.0)) lo += step;
+    double hi = lo + step;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (coil.waveform(mid) < 0.0 ? lo : hi) = mid;
+    }
+    return hi;
+  };
+  for (double t : {0.0, 300.0, 600.0}) {
+    const double a = upCrossingAfter(t), b = upCrossingAfter(a + 1e-3);
+    EXPECT_NEAR(1.0 / (b - a), 11.0 + coil.frequency_rate * 0.5 * (a + b), 1e-6) << "t=" << t;
+  }
+  coil.frequency_rate = 0.0;
+  EXPECT_NEAR(coil.waveform(2.0), std::sin(2.0 * M_PI * 11.0 * 2.0 + 0.3), 1e-12);
 }

@@ -310,7 +310,7 @@ TEST_F(GeneratedSequence, MagnetometerSeesTheEarthAndTheCoil) {
     T_w_b.linear() = gt[i].q.slerp(f, gt[i + 1].q).toRotationMatrix();
     T_w_b.translation() = (1.0 - f) * gt[i].p + f * gt[i + 1].p;
     const Eigen::Vector3d b_predicted =
-        MagnetometerSimulator::trueField(T_w_b, config.magnetometer.T_b_m, truth.geomagnetic.fieldEnu(), truth.coil, t);
+        MagnetometerSimulator::trueField(T_w_b, config.magnetometer.T_b_m, truth.magneticWorld(), t);
     const Eigen::Isometry3d T_w_m = T_w_b * config.magnetometer.T_b_m;
     const Eigen::Vector3d coil_m = T_w_m.linear().transpose() * truth.coil.field(T_w_m.translation(), t);
     const Eigen::Vector3d earth_m = T_w_m.linear().transpose() * truth.geomagnetic.fieldEnu();

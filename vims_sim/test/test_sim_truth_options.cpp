@@ -187,6 +187,12 @@ TEST(SimCommandLine, ErrorsNameTheArgument) {
   EXPECT_NE(errorOf(with({"--bogus", "1"})).find("--bogus"), std::string::npos);
   EXPECT_NE(errorOf(with({"--world-seed"})).find("--world-seed"), std::string::npos);
   EXPECT_NE(errorOf(with({"stray"})).find("stray"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--magnetic-anomaly-ut", "-1"})).find("--magnetic-anomaly-ut"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--coil-frequency-drift-hz", "3"})).find("--coil-frequency-drift-hz"), std::string::npos);
+  EXPECT_NE(
+      errorOf(with({"--coil-frequency", "2.5", "--coil-frequency-drift-hz", "-1"})).find("--coil-frequency-drift-hz"),
+      std::string::npos);
+  EXPECT_NE(errorOf(with({"--magnetic-anomaly-width-m", "1"})).find("--magnetic-anomaly-width-m"), std::string::npos);
 }
 
 TEST(SimSetup, WorldSeedFixesTheSiteAndSeedFixesTheRig) {
@@ -562,6 +568,58 @@ TEST(SimSetup, ACameraExtrinsicErrorIsInTheYamlAndTheTruthKeepsTheTrueOne) {
   EXPECT_EQ(loaded.camera_extrinsic_error->rotation_deg, 1.0);
   EXPECT_EQ(loaded.camera_extrinsic_error->translation_m, 0.01);
   EXPECT_TRUE(loaded.camera_extrinsic_error->true_T_b_c.isApprox(truth, 1e-15));
+}
+
+TEST(SimSetup, AMagneticAnomalyLiesUnderTheMidMissionPositionAndTheTruthKeepsIt) {
+  const auto options =
+      parseSimCommandLine({"--scenario", "tank", "--duration", "40", "--seed", "2", "--out", "/tmp/x/anomaly",
+                           "--magnetic-anomaly-ut", "2", "--magnetic-anomaly-width-m", "8"});
+  ASSERT_TRUE(options.has_value());
+  const SimSetup setup = buildSimSetup(*options);
+  SimOptions clean = *options;
+  clean.magnetic_anomaly_ut = 0.0;
+  EXPECT_FALSE(buildSimSetup(clean).truth.magnetic_anomaly.has_value());
+  ASSERT_TRUE(setup.truth.magnetic_anomaly.has_value());
+  const MagneticAnomaly& anomaly = *setup.truth.magnetic_anomaly;
+  const Eigen::Vector3d above = setup.trajectory.pose(3.0 + 0.5 * (40.0 - 3.0)).translation();
+  EXPECT_LT((anomaly.position_w - (above - Eigen::Vector3d(0, 0, 4.0))).norm(), 1e-12);
+  EXPECT_NEAR(anomaly.field(above).norm(), 2e-6, 1e-12);
+  // The magnetometer measures it: the world's field at that point is the site's plus the anomaly's.
+  const MagneticWorld world = setup.truth.magneticWorld();
+  EXPECT_LT((world.fieldEnu(above, 0.0) - world.coil.field(above, 0.0) - setup.truth.geomagnetic.fieldEnu() -
+             anomaly.field(above))
+                .norm(),
+            1e-15);
+  const fs::path path = tempPath("vims_truth_anomaly") += ".yaml";
+  setup.truth.save(path.string());
+  const SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  EXPECT_EQ(loaded.coil.frequency_rate, 0.0);
+  ASSERT_TRUE(loaded.magnetic_anomaly.has_value());
+  EXPECT_LT((loaded.magnetic_anomaly->position_w - anomaly.position_w).norm(), 1e-9);
+  EXPECT_LT((loaded.magnetic_anomaly->moment_enu - anomaly.moment_enu).norm(), 1e-9 * anomaly.moment_enu.norm());
+}
+
+}  // namespace
+}  // namespace sim
+}  // namespace vims
+
+namespace vims {
+namespace sim {
+namespace {
+
+TEST(SimSetup, ADriftingCoilStatesItsStartFrequencyAndTheTruthKeepsTheRate) {
+  const auto options = parseSimCommandLine({"--scenario", "tank", "--duration", "200", "--seed", "2", "--out",
+                                            "/tmp/x/drift", "--coil-frequency-drift-hz", "0.1"});
+  ASSERT_TRUE(options.has_value());
+  const SimSetup setup = buildSimSetup(*options);
+  EXPECT_EQ(setup.config.magnetometer.coil_frequency_hz, 11.0);
+  EXPECT_NEAR(setup.truth.coil.frequency_rate, 0.1 / 200.0, 1e-15);
+  const fs::path path = tempPath("vims_truth_drift") += ".yaml";
+  setup.truth.save(path.string());
+  const SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  EXPECT_EQ(loaded.coil.frequency_rate, setup.truth.coil.frequency_rate);
 }
 
 }  // namespace

@@ -94,6 +94,15 @@ struct MagnetometerOptions {
   /// window touching the gap is still published (valid = false); a longer gap restarts the
   /// pipeline. 2 s = one window.
   double max_fill_gap_s = 2.0;
+  /// A free-running coil oscillator drifts (temperature, battery): each valid window 10x above
+  /// min_snr measures the offset of the spectral peak from the current coil frequency (the log
+  /// power half a bin either side) and moves the frequency by hop_s / this of it [s]. 10 s: a 0.1 Hz drift over
+  /// ten minutes lags by 2 mHz, where a 2 s window loses 0.002 % of the amplitude, while single
+  /// windows' noise averages over 25 of them. 0: the frequency stays as stated (or found).
+  double frequency_tracking_time_constant_s = 10.0;
+  /// The tracked frequency stays within this [Hz] of the stated (or found) one, so no other line
+  /// (a thruster's, another coil's) can pull it further away.
+  double frequency_tracking_max_offset_hz = 0.5;
   AttitudeFilterOptions attitude;
   CoilSearchOptions coil_search;
 

@@ -60,6 +60,7 @@ struct SignatureExtractorStats {
   long resets = 0;  ///< clock backwards or gaps longer than max_fill_gap_s
   long windows = 0;
   long valid_windows = 0;
+  double frequency_hz = 0.0;  ///< the coil frequency of the latest window (tracked)
 };
 
 class SignatureExtractor {
@@ -99,7 +100,11 @@ class SignatureExtractor {
   void pushRaw(double t, const Eigen::Vector3d& B_m, unsigned flags, std::vector<GeomagneticSample>* geomagnetic,
                std::vector<SignatureWindow>* signatures);
   void pushAlt(const AltSlot& slot, std::vector<SignatureWindow>* signatures);
-  SignatureWindow computeWindow() const;
+  /// The window ending at the newest slot; `peak_offset_hz` receives the offset of the spectral
+  /// peak from the current frequency (0 when not tracking).
+  SignatureWindow computeWindow(double* peak_offset_hz) const;
+  /// Moves the frequency towards a valid window's peak (MagnetometerOptions::frequency_tracking_*).
+  void trackFrequency(double peak_offset_hz);
 
   MagnetometerOptions options_;
   MagnetometerCalibration calibration_;
@@ -111,7 +116,16 @@ class SignatureExtractor {
   int hop_samples_;
   std::vector<double> hann_;
   double hann_sum_ = 0.0;
-  std::vector<double> frequencies_;  ///< [0] = coil, then the neighbours
+  double nominal_frequency_hz_;  ///< stated in the sequence YAML (or found)
+  double frequency_hz_;          ///< tracked coil frequency
+  /// The frequency the moving average spans whole periods of; rebuilt (a restart of the
+  /// magnetometer pipeline) once the tracked one is too far from it.
+  double moving_average_frequency_hz_;
+  bool rebuild_moving_average_ = false;
+  /// Offsets [Hz] from frequency_hz_ of the evaluated frequencies: [0] = 0 (the coil), then
+  /// the noise neighbours, then (tracking) the two probes half a bin either side.
+  std::vector<double> offsets_;
+  size_t noise_bins_ = 0;
 
   // Moving average state (ring of the last N raw slots).
   std::vector<RawSlot> raw_;

@@ -11,6 +11,7 @@
 
 #include "vims_common/config_reader.h"
 #include "vims_pose_graph/feature_extraction.h"
+#include "vims_pose_graph/geomagnetic_gate.h"
 #include "vims_pose_graph/pose_graph.h"
 
 namespace vims {
@@ -341,6 +342,8 @@ struct PoseGraphManagerOptions {
   /// [s]; at most one per keyframe (the low-passed samples are strongly correlated, more would
   /// overweight the compass). 0.2 s: the AUV yaws at most a few degrees in that time.
   double geomagnetic_max_dt_s = 0.2;
+  /// Which geomagnetic samples may become yaw factors (geomagnetic_gate.h).
+  GeomagneticGateOptions geomagnetic_gate;
   /// A signature is placed on the trajectory by interpolating the keyframes around it; past the
   /// last keyframe of its session it may use the nearest one within this [s].
   double signature_max_extrapolation_s = 0.5;
@@ -366,7 +369,7 @@ struct PoseGraphManagerOptions {
 
   /// Keys: mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
   /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,
-  /// and the mappings features, magnetic_submaps, loop_closing, pose_graph.
+  /// and the mappings geomagnetic_gate, features, magnetic_submaps, loop_closing, pose_graph.
   static PoseGraphManagerOptions fromReader(const ConfigReader& reader);
   void validate() const;
   std::string toYaml() const;

@@ -69,6 +69,7 @@ struct PoseGraphManagerStats {
   size_t loop_attempts = 0;
   size_t loops_accepted = 0;
   size_t yaw_factors = 0;
+  size_t yaw_rejected = 0;  ///< geomagnetic samples the gate found disturbed (GeomagneticGate)
   size_t magnetic_submaps = 0;
   size_t optimisations = 0;
   bool relocalised = false;

@@ -196,6 +196,8 @@ const OptionTable<PoseGraphManagerOptions>& PoseGraphManagerOptions::optionTable
           .scaledNumber("session_link_yaw_sigma_per_s_deg", &O::session_link_yaw_sigma_per_s_rad, kDeg,
                         Bounds::closed(0.0, 360.0))
           .text("record_inputs_path", &O::record_inputs_path, true)
+          .section<GeomagneticGateOptions>("geomagnetic_gate", &O::geomagnetic_gate,
+                                           GeomagneticGateOptions::optionTable())
           .section<FeatureExtractionOptions>("features", &O::features,
                                              FeatureExtractionOptions::optionTable().without("descriptor"))
           .section<MagneticSubmapOptions>("magnetic_submaps", &O::magnetic, MagneticSubmapOptions::optionTable())

@@ -38,6 +38,7 @@ PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& option
                 options.featureOptions()),
       map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
       magnetic_builder_(options.magnetic),
+      geomagnetic_gate_(options.geomagnetic_gate),
       scheduler_(options, logger_, map_, run_nodes_) {
   options_.validate();
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
@@ -230,6 +231,15 @@ void PoseGraphManagerCore::addGeomagnetic(double t, const Eigen::Vector3d& field
 
 void PoseGraphManagerCore::finish() {
   processReady(true);
+  if (mode_.geomagnetic_yaw) {
+    applyGeomagneticVerdicts(geomagnetic_gate_.flush());
+    if (geomagnetic_gate_.numSamples() > 0)
+      logger_->info(kComponent, VIMS_STR(std::fixed << std::setprecision(2) << "geomagnetic gate: site field "
+                                                    << geomagnetic_gate_.siteMagnitude() * 1e6 << " uT, inclination "
+                                                    << geomagnetic_gate_.siteInclination() / kDeg << " deg; rejected "
+                                                    << geomagnetic_gate_.numRejected() << " of "
+                                                    << geomagnetic_gate_.numJudged() << " yaw measurements"));
+  }
   if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
   if (map_.numNodes() > 0) requestOptimisation(OptimisationTrigger::kFinish);
 }
@@ -253,6 +263,22 @@ void PoseGraphManagerCore::processReady(bool flush) {
   pruneBuffers();
 }
 
+void PoseGraphManagerCore::applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts) {
+  for (const GeomagneticVerdict& v : verdicts) {
+    if (v.accepted) {
+      if (map_.addYawMeasurement(v.candidate.node, v.candidate.field_b)) ++stats_.yaw_factors;
+      continue;
+    }
+    ++stats_.yaw_rejected;
+    logger_->warnThrottled(
+        kComponent, "geomagnetic_disturbed", v.candidate.t, 10.0,
+        VIMS_STR(std::fixed << std::setprecision(3) << "geomagnetic yaw rejected at t=" << v.candidate.t
+                            << ": disturbed field (magnitude " << std::showpos << 100.0 * v.magnitude_error_fraction
+                            << " %, inclination " << v.inclination_error_rad / kDeg << " deg from the site's, azimuth "
+                            << v.heading_error_rad / kDeg << std::noshowpos << " deg from the recent ones)"));
+  }
+}
+
 void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
   if (mode_.geomagnetic_yaw) {
     const GeomagneticMeasurement* nearest = nullptr;
@@ -260,7 +286,11 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
       if (std::abs(g.t - p.t) <= options_.geomagnetic_max_dt_s &&
           (nearest == nullptr || std::abs(g.t - p.t) < std::abs(nearest->t - p.t)))
         nearest = &g;
-    if (nearest != nullptr && map_.addYawMeasurement(p.node, nearest->field_body)) ++stats_.yaw_factors;
+    if (nearest != nullptr) {
+      const MapNode& node = map_.node(p.node);
+      applyGeomagneticVerdicts(geomagnetic_gate_.add(
+          GeomagneticGate::levelled(p.node, node.session, p.t, nearest->field_body, node.pose.T_odom_b.linear())));
+    }
   }
 
   std::optional<Eigen::Vector3d> signature;

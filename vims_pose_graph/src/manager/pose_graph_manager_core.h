@@ -19,6 +19,7 @@
 #include "vims_common/log.h"
 #include "vims_common/magnetic_signature.h"
 #include "vims_common/sequence_config.h"
+#include "vims_pose_graph/geomagnetic_gate.h"
 #include "vims_pose_graph/keyframe_description.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/loop_detector.h"
@@ -113,6 +114,8 @@ class PoseGraphManagerCore {
   /// Re-fits the VIO's drift from the loops (PoseGraphOptions::learn_odometry_drift); logs a change.
   void learnOdometryDrift(double t);
   void acceptLoop(const LoopAttempt& attempt);
+  /// Turns the gate's verdicts into yaw factors (accepted) or counted, logged rejections.
+  void applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts);
   void pruneBuffers();
   /// Solves inline (see solveNow), or hands the request over (handOptimisationRequestsTo).
   void requestOptimisation(OptimisationTrigger trigger);
@@ -127,6 +130,7 @@ class PoseGraphManagerCore {
 
   MultiScaleMap map_;
   MagneticSubmapBuilder magnetic_builder_;
+  GeomagneticGate geomagnetic_gate_;
   bool map_loaded_ = false;
   std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;

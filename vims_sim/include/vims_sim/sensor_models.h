@@ -177,12 +177,12 @@ struct MagnetometerParams {
 
 class MagnetometerSimulator {
  public:
-  MagnetometerSimulator(const MagnetometerParams& params, const Eigen::Isometry3d& T_b_m,
-                        const GeomagneticField& geomagnetic, const CoilDipole& coil, uint64_t seed);
+  MagnetometerSimulator(const MagnetometerParams& params, const Eigen::Isometry3d& T_b_m, MagneticWorld world,
+                        uint64_t seed);
 
   /// Noise-free field in the mag frame [T] at time t (seconds from the sequence start).
   static Eigen::Vector3d trueField(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_m,
-                                   const Eigen::Vector3d& geomagnetic_enu, const CoilDipole& coil, double t);
+                                   const MagneticWorld& world, double t);
 
   /// True field plus white noise.
   Eigen::Vector3d measure(const Eigen::Isometry3d& T_w_b, double t);
@@ -192,8 +192,7 @@ class MagnetometerSimulator {
  private:
   MagnetometerParams params_;
   Eigen::Isometry3d T_b_m_;
-  Eigen::Vector3d geomagnetic_enu_;
-  CoilDipole coil_;
+  MagneticWorld world_;
   Rng rng_;
 };
 

@@ -64,10 +64,16 @@ struct SimOptions {
   std::string distortion_model = "radtan";
   double coil_frequency_hz = 11.0;      ///< the seabed coil's frequency
   bool coil_frequency_unknown = false;  ///< the sequence YAML leaves the coil frequency open (null)
-  int render_threads = 0;               ///< 0: one per hardware thread
-  TerrainOptions terrain;               ///< default: the flat seabed z = 0
-  std::optional<double> depth_hold_z;   ///< [m] constant body z; unset: altitude hold
-  bool hold_plane_only = false;         ///< --hold-plane-only: altitude hold ignores the rolling relief
+  /// [Hz] the coil's frequency drifts linearly by this over the sequence (the YAML states the start's)
+  double coil_frequency_drift_hz = 0.0;
+  /// A geomagnetic anomaly under the mid-mission position: its peak field at the vehicle [uT]
+  /// (0: none) and its width [m] (the buried dipole's depth below the vehicle is half of it).
+  double magnetic_anomaly_ut = 0.0;
+  double magnetic_anomaly_width_m = 10.0;
+  int render_threads = 0;              ///< 0: one per hardware thread
+  TerrainOptions terrain;              ///< default: the flat seabed z = 0
+  std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold
+  bool hold_plane_only = false;        ///< --hold-plane-only: altitude hold ignores the rolling relief
   PressureOptions pressure;
   /// [m] the sonar's range limit (the YAML's max_range); a seabed beyond it gives no echo (+inf),
   /// as over a drop-off or when the vehicle climbs off the bottom. Unset: the default sonar's.

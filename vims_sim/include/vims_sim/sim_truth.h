@@ -75,6 +75,8 @@ struct SimTruth {
   /// The seabed coil. Its current is I(t) = current * sin(2 pi f (t - start_time) + phase).
   CoilDipole coil;
   GeomagneticField geomagnetic;
+  /// Set when the site has a local anomaly of the geomagnetic field (vims_sim --magnetic-anomaly-ut).
+  std::optional<MagneticAnomaly> magnetic_anomaly;
 
   /// IMU biases at the first sample (they then random-walk).
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< [rad/s]
@@ -88,6 +90,9 @@ struct SimTruth {
   bool hold_plane_only = false;           ///< the altitude hold followed the seabed's plane, not its relief
   /// Set when the sequence YAML's T_b_c is not the true one (vims_sim --camera-extrinsic-error-*).
   std::optional<CameraExtrinsicError> camera_extrinsic_error;
+
+  /// The field the magnetometer measures (without its noise).
+  MagneticWorld magneticWorld() const { return MagneticWorld{geomagnetic.fieldEnu(), coil, magnetic_anomaly}; }
 
   /// The camera extrinsic the images were rendered with: the true one, or the YAML's `T_b_c`
   /// when the sequence has no calibration error.
