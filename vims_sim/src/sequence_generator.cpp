@@ -242,7 +242,8 @@ void writeGridSample(int stream, int64_t t_ns, int64_t stamp_ns, const SimSetup&
       ++stats->imu_messages;
     }
   } else if (stream == kMag) {
-    const Eigen::Vector3d field = sensors.mag.measure(setup.trajectory.pose(t), t);
+    Eigen::Vector3d field = sensors.mag.measure(setup.trajectory.pose(t), t);
+    if (sensors.mag.hasThrusters()) field += sensors.mag.thrusterField(setup.trajectory.sample(t));
     if (!anySpanContains(spans.mag_off, t)) {
       sink.magnetometer(stamp_ns, field);
       ++stats->mag_messages;
@@ -302,6 +303,7 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
       MagnetometerSimulator(setup.magnetometer, cfg.magnetometer.T_b_m, truth.magneticWorld(),
                             deriveSeed(opt.seed, kStreamMagNoise)),
       std::nullopt};
+  if (truth.thrusters) sensors.mag.setThrusters(*truth.thrusters);
 
   auto texture = std::make_shared<SeabedTexture>(opt.worldSeed(), setup.texture);
   const SeabedRenderer renderer(cfg.camera, texture, setup.optics, setup.terrain);

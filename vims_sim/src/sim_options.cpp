@@ -164,6 +164,19 @@ void SimOptions::validate() const {
       coil_frequency_hz + coil_frequency_drift_hz >= 0.45 * rates.magnetometer)
     throw argError("--coil-frequency-drift-hz",
                    "takes the coil's frequency out of [2 Hz, 0.45 x the magnetometer's rate)");
+  requireInRange("--thruster-line-hz", thrusters.line_hz, 1.0, 500.0, "Hz");
+  requireInRange("--thruster-line-nt", thrusters.line_nt, 0.0, 10000.0, "nT");
+  requireInRange("--thruster-hard-iron-ut", thrusters.hard_iron_ut, 0.0, 50.0, "uT");
+  requireInRange("--thruster-broadband-nt", thrusters.broadband_nt, 0.0, 1000.0, "nT");
+  if (!thrusters.enabled) {
+    const Thrusters defaults;
+    const char* flag = thrusters.line_hz != defaults.line_hz             ? "--thruster-line-hz"
+                       : thrusters.line_nt != defaults.line_nt           ? "--thruster-line-nt"
+                       : thrusters.hard_iron_ut != defaults.hard_iron_ut ? "--thruster-hard-iron-ut"
+                       : thrusters.broadband_nt != defaults.broadband_nt ? "--thruster-broadband-nt"
+                                                                         : nullptr;
+    if (flag) throw argError(flag, "needs --thrusters");
+  }
   requireInRange("--magnetic-anomaly-ut", magnetic_anomaly_ut, 0.0, 50.0, "uT");
   requireInRange("--magnetic-anomaly-width-m", magnetic_anomaly_width_m, 2.0, 50.0, "m");
 
@@ -192,6 +205,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     }
     if (flag == "--pressure") {
       options.pressure.enabled = true;
+      continue;
+    }
+    if (flag == "--thrusters") {
+      options.thrusters.enabled = true;
       continue;
     }
     if (flag == "--coil-frequency-unknown") {
@@ -283,6 +300,14 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.coil_frequency_hz = parseDouble(flag, value);
     } else if (flag == "--coil-frequency-drift-hz") {
       options.coil_frequency_drift_hz = parseDouble(flag, value);
+    } else if (flag == "--thruster-line-hz") {
+      options.thrusters.line_hz = parseDouble(flag, value);
+    } else if (flag == "--thruster-line-nt") {
+      options.thrusters.line_nt = parseDouble(flag, value);
+    } else if (flag == "--thruster-hard-iron-ut") {
+      options.thrusters.hard_iron_ut = parseDouble(flag, value);
+    } else if (flag == "--thruster-broadband-nt") {
+      options.thrusters.broadband_nt = parseDouble(flag, value);
     } else if (flag == "--magnetic-anomaly-ut") {
       options.magnetic_anomaly_ut = parseDouble(flag, value);
     } else if (flag == "--magnetic-anomaly-width-m") {
@@ -356,6 +381,13 @@ Options:
                            it from the data); the truth file keeps it
   --coil-frequency-drift-hz D  the coil's frequency drifts linearly by D Hz (|D| <= 2) over the
                            sequence; the YAML states the frequency at the start
+  --thrusters              the vehicle's two thrusters disturb the magnetometer: lines at the
+                           motors' electrical frequency (~ sqrt(thrust)), a static offset and
+                           broadband noise (~ thrust); thrust from drag (v|v|) and inertia (m a)
+  --thruster-line-hz F     line frequency at the 0.5 m/s reference thrust (default 45; the second
+                           motor 4 % faster); --thruster-line-nt A its peak amplitude (default 200)
+  --thruster-hard-iron-ut H  static offset at the reference thrust (default 3)
+  --thruster-broadband-nt B  extra white noise per axis at the reference thrust (default 15)
   --magnetic-anomaly-ut UT a static geomagnetic anomaly (buried steel, magnetised along the site's
                            field) under the vehicle's mid-mission position, UT (0-50) at the vehicle
                            (default 0: none); the truth file keeps it

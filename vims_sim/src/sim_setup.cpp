@@ -25,6 +25,7 @@ enum : uint64_t {
   kStreamWater = 0x3a7e,
   kStreamPressureRig = 0x9b0e,
   kStreamExtrinsicError = 0xe4c0,
+  kStreamThrusters = 0x7412,
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -268,6 +269,15 @@ SimSetup buildSimSetup(const SimOptions& options) {
   truth.coil.phase = phase_rng.uniform(0.0, 2.0 * M_PI);  // the coil runs freely: its phase differs per dive
   truth.coil.frequency_rate = options.coil_frequency_drift_hz / options.duration;
   truth.geomagnetic = site.geomagnetic;
+  if (options.thrusters.enabled) {
+    ThrusterInterference th;
+    th.line_frequency_hz = options.thrusters.line_hz;
+    th.line_amplitude_tesla = options.thrusters.line_nt * 1e-9;
+    th.hard_iron_tesla = options.thrusters.hard_iron_ut * 1e-6;
+    th.broadband_std_tesla = options.thrusters.broadband_nt * 1e-9;
+    // The motors' placement relative to the magnetometer belongs to the vehicle: the rig's seed.
+    truth.thrusters = seededThrusterInterference(th, deriveSeed(options.seed, kStreamThrusters));
+  }
   if (options.magnetic_anomaly_ut > 0.0) {
     // Under the vehicle's mid-mission position, so the mission crosses it; buried half its width
     // below the vehicle, so the field falls to a third of its peak about that far to the side.

@@ -240,6 +240,19 @@ std::string SimTruth::toYaml() const {
        << "  translation_m: " << num(camera_extrinsic_error->translation_m) << "\n"
        << "  true_T_b_c: " << transform16(camera_extrinsic_error->true_T_b_c) << "\n";
   }
+  if (thrusters) {
+    os << "thrusters:  # the vehicle's thrusters at the magnetometer (vims_sim --thrusters; thruster_interference.h)\n"
+       << "  reference_speed_mps: " << num(thrusters->reference_speed_mps) << "\n"
+       << "  inertia_length_m: " << num(thrusters->inertia_length_m) << "\n"
+       << "  line_frequency_hz: " << num(thrusters->line_frequency_hz) << "  # thruster 0 at the reference thrust\n"
+       << "  second_motor_ratio: " << num(thrusters->second_motor_ratio) << "\n"
+       << "  line_amplitude_t: " << num(thrusters->line_amplitude_tesla) << "\n"
+       << "  hard_iron_t: " << num(thrusters->hard_iron_tesla) << "\n"
+       << "  broadband_std_t: " << num(thrusters->broadband_std_tesla) << "\n"
+       << "  line_direction_0_m: " << vec(thrusters->line_direction_m[0]) << "  # unit, mag frame\n"
+       << "  line_direction_1_m: " << vec(thrusters->line_direction_m[1]) << "\n"
+       << "  hard_iron_direction_m: " << vec(thrusters->hard_iron_direction_m) << "\n";
+  }
   if (magnetic_anomaly) {
     os << "magnetic_anomaly:  # a point dipole buried in the seabed; its static field adds to the geomagnetic one\n"
        << "  position_enu: " << vec(magnetic_anomaly->position_w) << "  # [m] world ENU\n"
@@ -276,7 +289,8 @@ SimTruth SimTruth::load(const std::string& path) {
                           "depth_hold_z",
                           "hold_plane_only",
                           "camera_extrinsic_error",
-                          "magnetic_anomaly"});
+                          "magnetic_anomaly",
+                          "thrusters"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -347,6 +361,25 @@ SimTruth SimTruth::load(const std::string& path) {
     error.translation_m = e.get<double>("translation_m");
     error.true_T_b_c = e.getTransform("true_T_b_c");
     t.camera_extrinsic_error = error;
+  }
+  if (root.has("thrusters")) {
+    const ConfigReader r = root.child("thrusters");
+    r.rejectUnknownKeys({"reference_speed_mps", "inertia_length_m", "line_frequency_hz", "second_motor_ratio",
+                         "line_amplitude_t", "hard_iron_t", "broadband_std_t", "line_direction_0_m",
+                         "line_direction_1_m", "hard_iron_direction_m"});
+    ThrusterInterference th;
+    th.reference_speed_mps = r.get<double>("reference_speed_mps");
+    requirePositive(r, "reference_speed_mps", th.reference_speed_mps);
+    th.inertia_length_m = r.get<double>("inertia_length_m");
+    th.line_frequency_hz = r.get<double>("line_frequency_hz");
+    th.second_motor_ratio = r.get<double>("second_motor_ratio");
+    th.line_amplitude_tesla = r.get<double>("line_amplitude_t");
+    th.hard_iron_tesla = r.get<double>("hard_iron_t");
+    th.broadband_std_tesla = r.get<double>("broadband_std_t");
+    th.line_direction_m[0] = readVec3(r, "line_direction_0_m");
+    th.line_direction_m[1] = readVec3(r, "line_direction_1_m");
+    th.hard_iron_direction_m = readVec3(r, "hard_iron_direction_m");
+    t.thrusters = th;
   }
   if (root.has("magnetic_anomaly")) {
     const ConfigReader a = root.child("magnetic_anomaly");

@@ -179,3 +179,51 @@ TEST(CoilDipole, ADriftingCoilsPhaseIsTheIntegralOfItsFrequency) {
   coil.frequency_rate = 0.0;
   EXPECT_NEAR(coil.waveform(2.0), std::sin(2.0 * M_PI * 11.0 * 2.0 + 0.3), 1e-12);
 }
+
+TEST(ThrusterInterference, ThrustFollowsDragAndInertiaAndTheLineItsSquareRoot) {
+  ThrusterInterference th;  // 0.5 m/s reference, 45 Hz, inertia length 3.3 m
+  TrajectoryState s;
+  s.q_w_b = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));  // heading does not matter
+  const Eigen::Vector3d forward = s.q_w_b * Eigen::Vector3d::UnitX();
+  EXPECT_EQ(th.relativeThrust(s)[0], 0.0);  // at rest: motors idle
+  s.v_w_b = 0.5 * forward;
+  EXPECT_NEAR(th.relativeThrust(s)[0], 1.0, 1e-12);
+  EXPECT_NEAR(th.lineFrequency(0, 1.0), 45.0, 1e-12);
+  EXPECT_NEAR(th.lineFrequency(1, 1.0), 45.0 * 1.04, 1e-12);
+  s.v_w_b = 0.25 * forward;
+  EXPECT_NEAR(th.relativeThrust(s)[1], 0.25, 1e-12);    // drag ~ v^2
+  EXPECT_NEAR(th.lineFrequency(0, 0.25), 22.5, 1e-12);  // RPM ~ sqrt(thrust)
+  s.a_w_b = 0.02 * forward;                             // accelerating adds m a
+  EXPECT_NEAR(th.relativeThrust(s)[0], 0.25 + 3.3 * 0.02 / 0.25, 1e-12);
+  s.a_w_b = -0.1 * forward;  // braking harder than drag: the propellers do not pull
+  EXPECT_EQ(th.relativeThrust(s)[0], 0.0);
+}
+
+TEST(ThrusterInterference, TheMagnetometerSeesTheLinesTheOffsetAndTheNoise) {
+  ThrusterInterference th;
+  th.broadband_std_tesla = 0.0;
+  th.line_amplitude_tesla = 1e-7;
+  th.hard_iron_tesla = 2e-6;
+  th.line_direction_m = {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()};
+  th.hard_iron_direction_m = Eigen::Vector3d::UnitZ();
+  MagnetometerSimulator mag(MagnetometerParams{}, Eigen::Isometry3d::Identity(), MagneticWorld{}, 1);
+  mag.setThrusters(th);
+  TrajectoryState s;
+  s.v_w_b = Eigen::Vector3d(0.5, 0.0, 0.0);  // the reference thrust: lines at 45 and 46.8 Hz
+  // One second at 1 kHz: the offset is the reference's, each line's zero crossings its frequency.
+  int crossings_x = 0, crossings_y = 0;
+  Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+  for (int k = 0; k <= 1000; ++k) {
+    s.t = 1e-3 * k;
+    const Eigen::Vector3d f = mag.thrusterField(s);
+    EXPECT_NEAR(f.z(), 2e-6, 1e-15);
+    EXPECT_LE(f.head<2>().cwiseAbs().maxCoeff(), 1e-7 + 1e-15);
+    if (k > 0) {
+      crossings_x += (previous.x() < 0.0) != (f.x() < 0.0);
+      crossings_y += (previous.y() < 0.0) != (f.y() < 0.0);
+    }
+    previous = f;
+  }
+  EXPECT_NEAR(crossings_x, 90, 1);  // two per period
+  EXPECT_NEAR(crossings_y, 93.6, 1.5);
+}

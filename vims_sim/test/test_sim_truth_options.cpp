@@ -188,6 +188,10 @@ TEST(SimCommandLine, ErrorsNameTheArgument) {
   EXPECT_NE(errorOf(with({"--world-seed"})).find("--world-seed"), std::string::npos);
   EXPECT_NE(errorOf(with({"stray"})).find("stray"), std::string::npos);
   EXPECT_NE(errorOf(with({"--magnetic-anomaly-ut", "-1"})).find("--magnetic-anomaly-ut"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--thruster-line-nt", "100"})).find("--thruster-line-nt: needs --thrusters"),
+            std::string::npos);
+  EXPECT_NE(errorOf(with({"--thrusters", "--thruster-hard-iron-ut", "-2"})).find("--thruster-hard-iron-ut"),
+            std::string::npos);
   EXPECT_NE(errorOf(with({"--coil-frequency-drift-hz", "3"})).find("--coil-frequency-drift-hz"), std::string::npos);
   EXPECT_NE(
       errorOf(with({"--coil-frequency", "2.5", "--coil-frequency-drift-hz", "-1"})).find("--coil-frequency-drift-hz"),
@@ -620,6 +624,36 @@ TEST(SimSetup, ADriftingCoilStatesItsStartFrequencyAndTheTruthKeepsTheRate) {
   const SimTruth loaded = SimTruth::load(path.string());
   fs::remove(path);
   EXPECT_EQ(loaded.coil.frequency_rate, setup.truth.coil.frequency_rate);
+}
+
+}  // namespace
+}  // namespace sim
+}  // namespace vims
+
+namespace vims {
+namespace sim {
+namespace {
+
+TEST(SimSetup, ThrustersAreSeededByTheRigAndTheTruthKeepsThem) {
+  const auto options =
+      parseSimCommandLine({"--scenario", "tank", "--duration", "40", "--seed", "2", "--out", "/tmp/x/thrusters",
+                           "--thrusters", "--thruster-line-hz", "30", "--thruster-hard-iron-ut", "2"});
+  ASSERT_TRUE(options.has_value());
+  const SimSetup setup = buildSimSetup(*options);
+  ASSERT_TRUE(setup.truth.thrusters.has_value());
+  const ThrusterInterference& th = *setup.truth.thrusters;
+  EXPECT_EQ(th.line_frequency_hz, 30.0);
+  EXPECT_NEAR(th.hard_iron_tesla, 2e-6, 1e-18);
+  EXPECT_NEAR(th.hard_iron_direction_m.norm(), 1.0, 1e-12);
+  EXPECT_GT((th.line_direction_m[0] - th.line_direction_m[1]).norm(), 1e-3);
+  const fs::path path = tempPath("vims_truth_thrusters") += ".yaml";
+  setup.truth.save(path.string());
+  const SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  ASSERT_TRUE(loaded.thrusters.has_value());
+  EXPECT_EQ(loaded.thrusters->line_frequency_hz, 30.0);
+  EXPECT_LT((loaded.thrusters->hard_iron_direction_m - th.hard_iron_direction_m).norm(), 1e-12);
+  EXPECT_LT((loaded.thrusters->line_direction_m[1] - th.line_direction_m[1]).norm(), 1e-12);
 }
 
 }  // namespace

@@ -6,12 +6,15 @@
 /// dropout spans) never changes another sensor's noise.
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/random.h"
 #include "vims_sim/terrain.h"
+#include "vims_sim/thruster_interference.h"
 #include "vims_sim/trajectory.h"
 
 namespace vims {
@@ -187,6 +190,12 @@ class MagnetometerSimulator {
   /// True field plus white noise.
   Eigen::Vector3d measure(const Eigen::Isometry3d& T_w_b, double t);
 
+  /// The vehicle's own thrusters (vims_sim --thrusters): their field in the mag frame [T] for the
+  /// state at the next sample (call in time order: the lines' phases integrate their frequency).
+  void setThrusters(const ThrusterInterference& thrusters) { thrusters_ = thrusters; }
+  bool hasThrusters() const { return thrusters_.has_value(); }
+  Eigen::Vector3d thrusterField(const TrajectoryState& state);
+
   const MagnetometerParams& params() const { return params_; }
 
  private:
@@ -194,6 +203,10 @@ class MagnetometerSimulator {
   Eigen::Isometry3d T_b_m_;
   MagneticWorld world_;
   Rng rng_;
+  std::optional<ThrusterInterference> thrusters_;
+  std::array<double, 2> line_phase_{0.0, 0.0};
+  double last_thruster_t_ = 0.0;
+  bool have_thruster_t_ = false;
 };
 
 }  // namespace sim

@@ -69,6 +69,15 @@ struct SimOptions {
   /// A geomagnetic anomaly under the mid-mission position: its peak field at the vehicle [uT]
   /// (0: none) and its width [m] (the buried dipole's depth below the vehicle is half of it).
   double magnetic_anomaly_ut = 0.0;
+  /// --thrusters: the vehicle's two thrusters disturb the magnetometer (thruster_interference.h);
+  /// the knobs give their size at the reference thrust (0.5 m/s).
+  struct Thrusters {
+    bool enabled = false;
+    double line_hz = 45.0;       ///< electrical line frequency at the reference thrust
+    double line_nt = 200.0;      ///< peak line amplitude [nT]
+    double hard_iron_ut = 3.0;   ///< static offset [uT]
+    double broadband_nt = 15.0;  ///< extra white noise per axis [nT]
+  } thrusters;
   double magnetic_anomaly_width_m = 10.0;
   int render_threads = 0;              ///< 0: one per hardware thread
   TerrainOptions terrain;              ///< default: the flat seabed z = 0

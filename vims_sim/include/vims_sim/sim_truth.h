@@ -20,6 +20,7 @@
 #include "vims_sim/magnetic_field.h"
 #include "vims_sim/sensor_models.h"
 #include "vims_sim/terrain.h"
+#include "vims_sim/thruster_interference.h"
 
 namespace vims {
 namespace sim {
@@ -77,6 +78,8 @@ struct SimTruth {
   GeomagneticField geomagnetic;
   /// Set when the site has a local anomaly of the geomagnetic field (vims_sim --magnetic-anomaly-ut).
   std::optional<MagneticAnomaly> magnetic_anomaly;
+  /// Set when the vehicle's thrusters disturb the magnetometer (vims_sim --thrusters).
+  std::optional<ThrusterInterference> thrusters;
 
   /// IMU biases at the first sample (they then random-walk).
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< [rad/s]
