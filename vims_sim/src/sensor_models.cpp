@@ -132,18 +132,17 @@ Eigen::Vector3d MagnetometerSimulator::trueField(const Eigen::Isometry3d& T_w_b,
 
 Eigen::Vector3d MagnetometerSimulator::thrusterField(const TrajectoryState& state) {
   const ThrusterInterference& th = *thrusters_;
-  const std::array<double, 2> u = th.relativeThrust(state);
+  const double u = th.relativeThrust(state);
   const double dt = have_thruster_t_ ? state.t - last_thruster_t_ : 0.0;
   have_thruster_t_ = true;
   last_thruster_t_ = state.t;
   Eigen::Vector3d field = Eigen::Vector3d::Zero();
   for (int i = 0; i < 2; ++i) {
-    line_phase_[i] = std::fmod(line_phase_[i] + 2.0 * M_PI * th.lineFrequency(i, u[i]) * dt, 2.0 * M_PI);
-    field += th.line_direction_m[i] * (th.line_amplitude_tesla * u[i] * std::sin(line_phase_[i]));
+    line_phase_[i] = std::fmod(line_phase_[i] + 2.0 * M_PI * th.lineFrequency(i, u) * dt, 2.0 * M_PI);
+    field += th.line_direction_m[i] * (th.line_amplitude_tesla * u * std::sin(line_phase_[i]));
   }
-  const double mean_u = 0.5 * (u[0] + u[1]);
-  field += th.hard_iron_direction_m * (th.hard_iron_tesla * mean_u);
-  const double s = th.broadband_std_tesla * mean_u;
+  field += th.hard_iron_direction_m * (th.hard_iron_tesla * u);
+  const double s = th.broadband_std_tesla * u;
   field += Eigen::Vector3d(rng_.gaussian(s), rng_.gaussian(s), rng_.gaussian(s));
   return field;
 }

@@ -9,14 +9,12 @@
 namespace vims {
 namespace sim {
 
-std::array<double, 2> ThrusterInterference::relativeThrust(const TrajectoryState& state) const {
+double ThrusterInterference::relativeThrust(const TrajectoryState& state) const {
   const Eigen::Matrix3d R_b_w = state.q_w_b.toRotationMatrix().transpose();
   const double v = (R_b_w * state.v_w_b).x();  // body FLU: x forward
   const double a = (R_b_w * state.a_w_b).x();
   // Thrust / (1/2 rho Cd A) = v|v| + (m / (1/2 rho Cd A)) a; thrusters push, never pull here.
-  const double u =
-      std::max(0.0, (v * std::abs(v) + inertia_length_m * a) / (reference_speed_mps * reference_speed_mps));
-  return {u, u};
+  return std::max(0.0, (v * std::abs(v) + inertia_length_m * a) / (reference_speed_mps * reference_speed_mps));
 }
 
 double ThrusterInterference::lineFrequency(int i, double u) const {

@@ -185,18 +185,18 @@ TEST(ThrusterInterference, ThrustFollowsDragAndInertiaAndTheLineItsSquareRoot) {
   TrajectoryState s;
   s.q_w_b = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));  // heading does not matter
   const Eigen::Vector3d forward = s.q_w_b * Eigen::Vector3d::UnitX();
-  EXPECT_EQ(th.relativeThrust(s)[0], 0.0);  // at rest: motors idle
+  EXPECT_EQ(th.relativeThrust(s), 0.0);  // at rest: motors idle
   s.v_w_b = 0.5 * forward;
-  EXPECT_NEAR(th.relativeThrust(s)[0], 1.0, 1e-12);
+  EXPECT_NEAR(th.relativeThrust(s), 1.0, 1e-12);
   EXPECT_NEAR(th.lineFrequency(0, 1.0), 45.0, 1e-12);
   EXPECT_NEAR(th.lineFrequency(1, 1.0), 45.0 * 1.04, 1e-12);
   s.v_w_b = 0.25 * forward;
-  EXPECT_NEAR(th.relativeThrust(s)[1], 0.25, 1e-12);    // drag ~ v^2
+  EXPECT_NEAR(th.relativeThrust(s), 0.25, 1e-12);       // drag ~ v^2
   EXPECT_NEAR(th.lineFrequency(0, 0.25), 22.5, 1e-12);  // RPM ~ sqrt(thrust)
   s.a_w_b = 0.02 * forward;                             // accelerating adds m a
-  EXPECT_NEAR(th.relativeThrust(s)[0], 0.25 + 3.3 * 0.02 / 0.25, 1e-12);
+  EXPECT_NEAR(th.relativeThrust(s), 0.25 + 3.3 * 0.02 / 0.25, 1e-12);
   s.a_w_b = -0.1 * forward;  // braking harder than drag: the propellers do not pull
-  EXPECT_EQ(th.relativeThrust(s)[0], 0.0);
+  EXPECT_EQ(th.relativeThrust(s), 0.0);
 }
 
 TEST(ThrusterInterference, TheMagnetometerSeesTheLinesTheOffsetAndTheNoise) {

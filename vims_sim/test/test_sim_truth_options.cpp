@@ -22,6 +22,15 @@ fs::path tempPath(const std::string& stem) {
                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
 }
 
+/// The truth written to a temporary file and read back.
+SimTruth savedAndLoaded(const SimTruth& truth, const std::string& stem) {
+  const fs::path path = tempPath(stem) += ".yaml";
+  truth.save(path.string());
+  SimTruth loaded = SimTruth::load(path.string());
+  fs::remove(path);
+  return loaded;
+}
+
 std::string errorOf(const std::vector<std::string>& args) {
   try {
     parseSimCommandLine(args);
@@ -426,10 +435,7 @@ TEST(SimTruth, TerrainAndPressureRoundTripAndRebuildTheSeabed) {
   options.spans.pressure_off = {{5.0, 7.5}};
   const SimSetup setup = buildSimSetup(options);
   const SimTruth& truth = setup.truth;
-  const fs::path path = tempPath("vims_truth_terrain") += ".yaml";
-  truth.save(path.string());
-  const SimTruth loaded = SimTruth::load(path.string());
-  fs::remove(path);
+  const SimTruth loaded = savedAndLoaded(truth, "vims_truth_terrain");
   EXPECT_EQ(loaded.toYaml(), truth.toYaml());
   EXPECT_EQ(loaded.terrain.seed, setup.terrain->params().seed);
   EXPECT_EQ(loaded.terrain.slope_azimuth_deg, setup.terrain->params().slope_azimuth_deg);
@@ -564,10 +570,7 @@ TEST(SimSetup, ACameraExtrinsicErrorIsInTheYamlAndTheTruthKeepsTheTrueOne) {
   EXPECT_NEAR((off.config.camera.T_b_c.translation() - truth.translation()).norm(), 0.01, 1e-12);
   // Nothing else of the sequence changes, and the truth file keeps the error.
   EXPECT_TRUE(off.config.sonar.T_b_s.isApprox(exact.config.sonar.T_b_s, 0.0));
-  const fs::path path = tempPath("vims_truth_calib") += ".yaml";
-  off.truth.save(path.string());
-  const SimTruth loaded = SimTruth::load(path.string());
-  fs::remove(path);
+  const SimTruth loaded = savedAndLoaded(off.truth, "vims_truth_calib");
   ASSERT_TRUE(loaded.camera_extrinsic_error.has_value());
   EXPECT_EQ(loaded.camera_extrinsic_error->rotation_deg, 1.0);
   EXPECT_EQ(loaded.camera_extrinsic_error->translation_m, 0.01);
@@ -594,10 +597,7 @@ TEST(SimSetup, AMagneticAnomalyLiesUnderTheMidMissionPositionAndTheTruthKeepsIt)
              anomaly.field(above))
                 .norm(),
             1e-15);
-  const fs::path path = tempPath("vims_truth_anomaly") += ".yaml";
-  setup.truth.save(path.string());
-  const SimTruth loaded = SimTruth::load(path.string());
-  fs::remove(path);
+  const SimTruth loaded = savedAndLoaded(setup.truth, "vims_truth_anomaly");
   EXPECT_EQ(loaded.coil.frequency_rate, 0.0);
   ASSERT_TRUE(loaded.magnetic_anomaly.has_value());
   EXPECT_LT((loaded.magnetic_anomaly->position_w - anomaly.position_w).norm(), 1e-9);
@@ -619,10 +619,7 @@ TEST(SimSetup, ADriftingCoilStatesItsStartFrequencyAndTheTruthKeepsTheRate) {
   const SimSetup setup = buildSimSetup(*options);
   EXPECT_EQ(setup.config.magnetometer.coil_frequency_hz, 11.0);
   EXPECT_NEAR(setup.truth.coil.frequency_rate, 0.1 / 200.0, 1e-15);
-  const fs::path path = tempPath("vims_truth_drift") += ".yaml";
-  setup.truth.save(path.string());
-  const SimTruth loaded = SimTruth::load(path.string());
-  fs::remove(path);
+  const SimTruth loaded = savedAndLoaded(setup.truth, "vims_truth_drift");
   EXPECT_EQ(loaded.coil.frequency_rate, setup.truth.coil.frequency_rate);
 }
 
@@ -646,10 +643,7 @@ TEST(SimSetup, ThrustersAreSeededByTheRigAndTheTruthKeepsThem) {
   EXPECT_NEAR(th.hard_iron_tesla, 2e-6, 1e-18);
   EXPECT_NEAR(th.hard_iron_direction_m.norm(), 1.0, 1e-12);
   EXPECT_GT((th.line_direction_m[0] - th.line_direction_m[1]).norm(), 1e-3);
-  const fs::path path = tempPath("vims_truth_thrusters") += ".yaml";
-  setup.truth.save(path.string());
-  const SimTruth loaded = SimTruth::load(path.string());
-  fs::remove(path);
+  const SimTruth loaded = savedAndLoaded(setup.truth, "vims_truth_thrusters");
   ASSERT_TRUE(loaded.thrusters.has_value());
   EXPECT_EQ(loaded.thrusters->line_frequency_hz, 30.0);
   EXPECT_LT((loaded.thrusters->hard_iron_direction_m - th.hard_iron_direction_m).norm(), 1e-12);

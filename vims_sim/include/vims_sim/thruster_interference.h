@@ -35,8 +35,9 @@ struct ThrusterInterference {
   std::array<Eigen::Vector3d, 2> line_direction_m{Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()};
   Eigen::Vector3d hard_iron_direction_m = Eigen::Vector3d::UnitZ();  ///< unit, mag frame
 
-  /// Thrust of each thruster relative to the reference (>= 0) for the vehicle's state.
-  std::array<double, 2> relativeThrust(const TrajectoryState& state) const;
+  /// Thrust of each thruster relative to the reference (>= 0) for the vehicle's state (both push
+  /// alike; only their motors' frequencies differ).
+  double relativeThrust(const TrajectoryState& state) const;
   /// Electrical frequency of thruster i at relative thrust u [Hz].
   double lineFrequency(int i, double u) const;
 };
