@@ -441,7 +441,9 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", culled_submaps: " << pg.culled_submaps << ", sessions: " << pg.sessions
       << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
       << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
-      << ", yaw_rejected: " << pg.yaw_rejected << ", magnetic_submaps: " << pg.magnetic_submaps
+      << ", yaw_rejected: " << pg.yaw_rejected
+      << ", vehicle_field_taken_out: " << (pg.vehicle_field_taken_out ? "true" : "false")
+      << ", vehicle_field_explained: " << pg.vehicle_field_explained << ", magnetic_submaps: " << pg.magnetic_submaps
       << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false") << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99

@@ -13,6 +13,7 @@
 #include "vims_pose_graph/feature_extraction.h"
 #include "vims_pose_graph/geomagnetic_gate.h"
 #include "vims_pose_graph/pose_graph.h"
+#include "vims_pose_graph/vehicle_field.h"
 
 namespace vims {
 
@@ -344,6 +345,8 @@ struct PoseGraphManagerOptions {
   double geomagnetic_max_dt_s = 0.2;
   /// Which geomagnetic samples may become yaw factors (geomagnetic_gate.h).
   GeomagneticGateOptions geomagnetic_gate;
+  /// The vehicle's own field taken out of the geomagnetic samples first (vehicle_field.h).
+  VehicleFieldOptions vehicle_field;
   /// A signature is placed on the trajectory by interpolating the keyframes around it; past the
   /// last keyframe of its session it may use the nearest one within this [s].
   double signature_max_extrapolation_s = 0.5;
@@ -369,7 +372,7 @@ struct PoseGraphManagerOptions {
 
   /// Keys: mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
   /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,
-  /// and the mappings geomagnetic_gate, features, magnetic_submaps, loop_closing, pose_graph.
+  /// and the mappings geomagnetic_gate, vehicle_field, features, magnetic_submaps, loop_closing, pose_graph.
   static PoseGraphManagerOptions fromReader(const ConfigReader& reader);
   void validate() const;
   std::string toYaml() const;

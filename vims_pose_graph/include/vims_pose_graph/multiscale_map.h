@@ -126,6 +126,11 @@ class MultiScaleMap {
   /// component about its oldest keyframe to the measured heading (the VIO yaw is arbitrary; at
   /// 180 deg off the chordal residual has no gradient). A loaded map's frame is never rotated.
   bool addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3d& B_b_geomagnetic);
+  /// Replaces the field of yaw measurement `index` (yawMeasurements()' order) by a better
+  /// estimate of the same sample (the vehicle's own field taken out with a later fit); the
+  /// component is not rotated again. False, leaving it as it was, when the new field's
+  /// horizontal part is too small or not finite.
+  bool setYawMeasurementField(size_t index, const Eigen::Vector3d& B_b_geomagnetic);
   /// A pressure depth of the port (p_b_port in the body) below the surface at `node`: a depth
   /// factor in the node's component solves (PoseGraph4Dof, DepthMeasurement). False for a
   /// non-finite depth. Depth factors belong to this run: the map file does not keep them.

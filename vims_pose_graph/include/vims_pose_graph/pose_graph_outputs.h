@@ -70,6 +70,10 @@ struct PoseGraphManagerStats {
   size_t loops_accepted = 0;
   size_t yaw_factors = 0;
   size_t yaw_rejected = 0;  ///< geomagnetic samples the gate found disturbed (GeomagneticGate)
+  /// The vehicle's own field is being taken out of the geomagnetic samples (VehicleFieldEstimator::
+  /// applied), and how much of their spread its fit explains.
+  bool vehicle_field_taken_out = false;
+  double vehicle_field_explained = 0.0;
   size_t magnetic_submaps = 0;
   size_t optimisations = 0;
   bool relocalised = false;

@@ -198,6 +198,7 @@ const OptionTable<PoseGraphManagerOptions>& PoseGraphManagerOptions::optionTable
           .text("record_inputs_path", &O::record_inputs_path, true)
           .section<GeomagneticGateOptions>("geomagnetic_gate", &O::geomagnetic_gate,
                                            GeomagneticGateOptions::optionTable())
+          .section<VehicleFieldOptions>("vehicle_field", &O::vehicle_field, VehicleFieldOptions::optionTable())
           .section<FeatureExtractionOptions>("features", &O::features,
                                              FeatureExtractionOptions::optionTable().without("descriptor"))
           .section<MagneticSubmapOptions>("magnetic_submaps", &O::magnetic, MagneticSubmapOptions::optionTable())

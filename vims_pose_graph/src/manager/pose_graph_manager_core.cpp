@@ -12,6 +12,11 @@ namespace vims {
 namespace {
 constexpr const char* kComponent = "pose_graph_manager";
 constexpr double kDeg = M_PI / 180.0;
+// The vehicle-field model's velocity and acceleration at a keyframe come from the keyframes
+// within this time of it [s] (at most kMotionMaxNeighbours either side): a few keyframes, short
+// against the seconds over which an AUV's thrust changes.
+constexpr double kMotionHalfWindowS = 2.0;
+constexpr PoseGraphNodeId kMotionMaxNeighbours = 8;
 
 bool isValidPose(const Eigen::Isometry3d& T) {
   const Eigen::Matrix3d R = T.linear();
@@ -39,6 +44,7 @@ PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& option
       map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
       magnetic_builder_(options.magnetic),
       geomagnetic_gate_(options.geomagnetic_gate),
+      vehicle_field_(options.vehicle_field),
       scheduler_(options, logger_, map_, run_nodes_) {
   options_.validate();
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
@@ -59,6 +65,7 @@ void PoseGraphManagerCore::handOptimisationRequestsTo(std::function<void(Optimis
 }
 
 void PoseGraphManagerCore::requestOptimisation(OptimisationTrigger trigger) {
+  recorrectYawFactors();
   scheduler_.optimisationRequested();
   if (optimisation_handler_)
     optimisation_handler_(trigger);
@@ -239,9 +246,31 @@ void PoseGraphManagerCore::finish() {
                                                     << geomagnetic_gate_.siteInclination() / kDeg << " deg; rejected "
                                                     << geomagnetic_gate_.numRejected() << " of "
                                                     << geomagnetic_gate_.numJudged() << " yaw measurements"));
+    if (vehicle_field_.numSamples() > 0) logVehicleField();
   }
   if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
   if (map_.numNodes() > 0) requestOptimisation(OptimisationTrigger::kFinish);
+}
+
+void PoseGraphManagerCore::logVehicleField() const {
+  auto uT = [](const Eigen::Vector3d& v) {
+    return VIMS_STR(std::fixed << std::setprecision(2) << "[" << v.x() * 1e6 << ", " << v.y() * 1e6 << ", "
+                               << v.z() * 1e6 << "] uT");
+  };
+  const VehicleFieldEstimator& f = vehicle_field_;
+  logger_->info(kComponent,
+                VIMS_STR("vehicle field "
+                         << (f.applied() ? "taken out" : "not taken out") << " (body, fitted on " << f.numSamples()
+                         << " samples): constant " << uT(f.parameters().segment<3>(0)) << ", at 0.5 m/s "
+                         << uT(f.fittedField({0.5, 0.0})) << ", per m/s^2 " << uT(f.parameters().segment<3>(9))
+                         << "; residual " << std::fixed << std::setprecision(1) << f.residualRms() * 1e9
+                         << " nT, explains " << 100.0 * f.explainedFraction() << " % of the samples' spread"));
+}
+
+void PoseGraphManagerCore::recorrectYawFactors() {
+  if (vehicle_field_.numSamples() == 0) return;
+  for (const RunYawSample& y : run_yaw_samples_)
+    map_.setYawMeasurementField(y.measurement, y.field_b - vehicle_field_.vehicleField(y.motion));
 }
 
 void PoseGraphManagerCore::processReady(bool flush) {
@@ -265,8 +294,17 @@ void PoseGraphManagerCore::processReady(bool flush) {
 
 void PoseGraphManagerCore::applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts) {
   for (const GeomagneticVerdict& v : verdicts) {
+    const auto measured = gated_samples_.find(v.candidate.node);
+    std::optional<RunYawSample> sample;
+    if (measured != gated_samples_.end()) {
+      sample = RunYawSample{map_.yawMeasurements().size(), measured->second.first, measured->second.second};
+      gated_samples_.erase(measured);
+    }
     if (v.accepted) {
-      if (map_.addYawMeasurement(v.candidate.node, v.candidate.field_b)) ++stats_.yaw_factors;
+      if (map_.addYawMeasurement(v.candidate.node, v.candidate.field_b)) {
+        ++stats_.yaw_factors;
+        if (sample) run_yaw_samples_.push_back(*sample);
+      }
       continue;
     }
     ++stats_.yaw_rejected;
@@ -279,6 +317,22 @@ void PoseGraphManagerCore::applyGeomagneticVerdicts(const std::vector<Geomagneti
   }
 }
 
+std::optional<ForwardMotion> PoseGraphManagerCore::forwardMotionAt(PoseGraphNodeId id) const {
+  // The nodes of the node's session within kMotionHalfWindowS of it (a session's nodes are
+  // consecutive ids; the ones after it are usually in the map already, loop detection waits for
+  // the magnetic data).
+  const MapNode& centre = map_.node(id);
+  std::vector<TimedPosition> positions;
+  const PoseGraphNodeId first = id >= kMotionMaxNeighbours ? id - kMotionMaxNeighbours : 0;
+  const PoseGraphNodeId last = std::min<PoseGraphNodeId>(id + kMotionMaxNeighbours, map_.numNodes() - 1);
+  for (PoseGraphNodeId k = first; k <= last; ++k) {
+    const MapNode& n = map_.node(k);
+    if (n.session == centre.session && std::abs(n.pose.t - centre.pose.t) <= kMotionHalfWindowS)
+      positions.push_back(TimedPosition{n.pose.t, n.pose.T_odom_b.translation()});
+  }
+  return forwardMotion(positions, centre.pose.t, centre.pose.T_odom_b.linear());
+}
+
 void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
   if (mode_.geomagnetic_yaw) {
     const GeomagneticMeasurement* nearest = nullptr;
@@ -288,8 +342,24 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
         nearest = &g;
     if (nearest != nullptr) {
       const MapNode& node = map_.node(p.node);
-      applyGeomagneticVerdicts(geomagnetic_gate_.add(
-          GeomagneticGate::levelled(p.node, node.session, p.t, nearest->field_body, node.pose.T_odom_b.linear())));
+      const Eigen::Matrix3d R_odom_b = node.pose.T_odom_b.linear();
+      const std::optional<ForwardMotion> motion = forwardMotionAt(p.node);
+      if (motion) {
+        const bool was_applied = vehicle_field_.applied();
+        vehicle_field_.add(node.session, p.t, R_odom_b, nearest->field_body, *motion);
+        if (vehicle_field_.applied() != was_applied)
+          logger_->info(kComponent,
+                        VIMS_STR(std::fixed << std::setprecision(1) << "vehicle field "
+                                            << (was_applied ? "no longer taken out" : "taken out") << " from t=" << p.t
+                                            << " (the fit explains " << 100.0 * vehicle_field_.explainedFraction()
+                                            << " % of the geomagnetic samples' spread)"));
+      }
+      // Without the motion (a session's first two keyframes) only the constant part is known.
+      const Eigen::Vector3d field_b =
+          nearest->field_body - vehicle_field_.vehicleField(motion.value_or(ForwardMotion{}));
+      gated_samples_[p.node] = {nearest->field_body, motion.value_or(ForwardMotion{})};
+      applyGeomagneticVerdicts(
+          geomagnetic_gate_.add(GeomagneticGate::levelled(p.node, node.session, p.t, field_b, R_odom_b)));
     }
   }
 
@@ -562,6 +632,8 @@ MapContents PoseGraphManagerCore::mapContents() const {
 PoseGraphManagerStats PoseGraphManagerCore::stats() const {
   PoseGraphManagerStats stats = stats_;
   stats.optimisations = scheduler_.optimisations();
+  stats.vehicle_field_taken_out = vehicle_field_.applied();
+  stats.vehicle_field_explained = vehicle_field_.explainedFraction();
   return stats;
 }
 

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,6 +27,7 @@
 #include "vims_pose_graph/magnetic_submap.h"
 #include "vims_pose_graph/multiscale_map.h"
 #include "vims_pose_graph/pose_graph_outputs.h"
+#include "vims_pose_graph/vehicle_field.h"
 
 namespace vims {
 
@@ -114,6 +116,12 @@ class PoseGraphManagerCore {
   /// Re-fits the VIO's drift from the loops (PoseGraphOptions::learn_odometry_drift); logs a change.
   void learnOdometryDrift(double t);
   void acceptLoop(const LoopAttempt& attempt);
+  /// The VIO's forward motion at a node (VehicleFieldEstimator's regressors); nullopt for a
+  /// session's first two nodes.
+  std::optional<ForwardMotion> forwardMotionAt(PoseGraphNodeId id) const;
+  void logVehicleField() const;
+  /// Gives this run's yaw factors the vehicle's field of the current fit (before each solve).
+  void recorrectYawFactors();
   /// Turns the gate's verdicts into yaw factors (accepted) or counted, logged rejections.
   void applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts);
   void pruneBuffers();
@@ -131,6 +139,16 @@ class PoseGraphManagerCore {
   MultiScaleMap map_;
   MagneticSubmapBuilder magnetic_builder_;
   GeomagneticGate geomagnetic_gate_;
+  VehicleFieldEstimator vehicle_field_;  ///< taken out of the geomagnetic samples before the gate
+  /// A yaw factor of this run as measured, re-corrected with each new fit of the vehicle's field.
+  struct RunYawSample {
+    size_t measurement = 0;  ///< index into the map's yaw measurements
+    Eigen::Vector3d field_b = Eigen::Vector3d::Zero();
+    ForwardMotion motion;
+  };
+  /// Samples waiting for the gate, as measured (by node), and the accepted ones.
+  std::map<PoseGraphNodeId, std::pair<Eigen::Vector3d, ForwardMotion>> gated_samples_;
+  std::vector<RunYawSample> run_yaw_samples_;
   bool map_loaded_ = false;
   std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;

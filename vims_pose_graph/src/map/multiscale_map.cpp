@@ -217,6 +217,20 @@ bool MultiScaleMap::addYawMeasurement(PoseGraphNodeId node, const Eigen::Vector3
   return true;
 }
 
+bool MultiScaleMap::setYawMeasurementField(size_t index, const Eigen::Vector3d& B_b) {
+  if (index >= yaw_measurements_.size())
+    throw std::invalid_argument("MultiScaleMap::setYawMeasurementField: no yaw measurement " + std::to_string(index));
+  YawMeasurement& m = yaw_measurements_[index];
+  const PoseGraphNode& n = nodes_[m.node].pose;
+  Eigen::Vector2d u_l;
+  double horizontal = 0.0;
+  if (!levelledFieldDirection(B_b, n.pitch, n.roll, graph_options_.mag_min_horizontal_field_tesla, &u_l, &horizontal))
+    return false;
+  m.u_l = u_l;
+  m.heading_rad = headingFromLevelledField(u_l, north_enu_);
+  return true;
+}
+
 bool MultiScaleMap::addDepthMeasurement(PoseGraphNodeId node, double depth_m, const Eigen::Vector3d& p_b_port) {
   checkNode(node, "addDepthMeasurement");
   const PoseGraphNode& n = nodes_[node].pose;
