@@ -177,3 +177,30 @@ TEST(GeomagneticGate, ANewVioSessionStartsItsOwnHeadingReference) {
   }
   EXPECT_EQ(accepted, 100u);
 }
+
+TEST(GeomagneticGate, ARestartedSiteJudgesByTheRemeasuredSamples) {
+  // 60 samples measured 4 % too strong (the vehicle's own field, not yet known), then the same
+  // samples re-measured: after the restart the site is the re-measured one and a clean sample
+  // passes where, judged against the old medians, it was rejected.
+  GeomagneticGate gate(GeomagneticGateOptions{});
+  const Eigen::Vector3d clean = fieldEnu(49e-6, 46.0, 4.0);
+  std::vector<GeomagneticCandidate> remeasured;
+  for (uint32_t k = 0; k < 60; ++k) {
+    gate.add(measured(k, clean * 1.04, 0.05 * k, 0.0, 0.0));
+    remeasured.push_back(measured(k, clean, 0.05 * k, 0.0, 0.0));
+  }
+  std::vector<GeomagneticVerdict> before = gate.add(measured(60, clean, 3.0, 0.0, 0.0));
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_FALSE(before[0].accepted);
+  EXPECT_NEAR(before[0].magnitude_error_fraction, 1.0 / 1.04 - 1.0, 1e-9);
+  remeasured.push_back(measured(60, clean, 3.0, 0.0, 0.0));
+  gate.restartSite(remeasured);
+  EXPECT_NEAR(gate.siteMagnitude(), 49e-6, 1e-15);
+  const std::vector<GeomagneticVerdict> after = gate.add(measured(61, clean, 3.05, 0.0, 0.0));
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_TRUE(after[0].accepted);
+  EXPECT_NEAR(after[0].magnitude_error_fraction, 0.0, 1e-9);
+  // The counts are the run's: 62 judged, the one rejection kept.
+  EXPECT_EQ(gate.numJudged(), 62u);
+  EXPECT_EQ(gate.numRejected(), 1u);
+}

@@ -91,6 +91,11 @@ class GeomagneticGate {
   std::vector<GeomagneticVerdict> add(const GeomagneticCandidate& candidate);
   /// Verdicts for the candidates still held (end of the run).
   std::vector<GeomagneticVerdict> flush();
+  /// Replaces the site's estimate and the heading reference by those of `history` (every
+  /// candidate added so far, re-measured: the vehicle's field taken out with a newer fit), so
+  /// the samples measured before cannot hold the medians where the uncorrected field was.
+  /// Held candidates and the counts stay.
+  void restartSite(const std::vector<GeomagneticCandidate>& history);
 
   /// The site's values: medians of every candidate added (NaN before the first).
   double siteMagnitude() const;

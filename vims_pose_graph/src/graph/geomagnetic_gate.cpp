@@ -115,6 +115,25 @@ std::vector<GeomagneticVerdict> GeomagneticGate::flush() {
   return verdicts;
 }
 
+void GeomagneticGate::restartSite(const std::vector<GeomagneticCandidate>& history) {
+  magnitudes_.clear();
+  inclinations_.clear();
+  for (const GeomagneticCandidate& c : history) {
+    magnitudes_.push_back(c.magnitude_tesla);
+    inclinations_.push_back(c.inclination_rad);
+  }
+  std::sort(magnitudes_.begin(), magnitudes_.end());
+  std::sort(inclinations_.begin(), inclinations_.end());
+  azimuths_.clear();
+  if (magnitudes_.size() < kMinSamplesToJudge || history.empty()) return;
+  const double oldest_needed = history.back().t - kSlopeHorizonWindows * options_.heading_window_s;
+  for (const GeomagneticCandidate& c : history) {
+    GeomagneticVerdict unused;
+    if (c.t >= oldest_needed && invariantsAgree(c, &unused))
+      azimuths_.push_back(Azimuth{c.session, c.t, c.azimuth_odom_rad});
+  }
+}
+
 bool GeomagneticGate::invariantsAgree(const GeomagneticCandidate& candidate, GeomagneticVerdict* verdict) const {
   const double site_magnitude = siteMagnitude();
   verdict->magnitude_error_fraction = (candidate.magnitude_tesla - site_magnitude) / site_magnitude;

@@ -17,6 +17,9 @@ constexpr double kDeg = M_PI / 180.0;
 // against the seconds over which an AUV's thrust changes.
 constexpr double kMotionHalfWindowS = 2.0;
 constexpr PoseGraphNodeId kMotionMaxNeighbours = 8;
+// While the vehicle-field fit is used, the gate's site values are re-measured with it every this
+// many samples (the fit keeps improving; a sort of the run's samples, a millisecond).
+constexpr size_t kSiteRestartSamples = 100;
 
 bool isValidPose(const Eigen::Isometry3d& T) {
   const Eigen::Matrix3d R = T.linear();
@@ -267,10 +270,47 @@ void PoseGraphManagerCore::logVehicleField() const {
                          << " nT, explains " << 100.0 * f.explainedFraction() << " % of the samples' spread"));
 }
 
+GeomagneticCandidate PoseGraphManagerCore::candidateOf(const MeasuredGeomagnetic& m) const {
+  return GeomagneticGate::levelled(m.node, m.session, m.t, m.field_b - vehicle_field_.vehicleField(m.motion),
+                                   m.R_odom_b);
+}
+
+void PoseGraphManagerCore::gateGeomagnetic(PoseGraphNodeId id, const Eigen::Vector3d& field_b) {
+  const MapNode& node = map_.node(id);
+  MeasuredGeomagnetic m{id, node.session, node.pose.t, field_b, ForwardMotion{}, node.pose.T_odom_b.linear()};
+  // Without the motion (a session's first two keyframes) only the constant part is known.
+  const std::optional<ForwardMotion> motion = forwardMotionAt(id);
+  if (motion) {
+    m.motion = *motion;
+    const bool was_applied = vehicle_field_.applied();
+    vehicle_field_.add(m.session, m.t, m.R_odom_b, field_b, *motion);
+    const bool applied = vehicle_field_.applied();
+    if (applied != was_applied)
+      logger_->info(kComponent,
+                    VIMS_STR(std::fixed << std::setprecision(1) << "vehicle field "
+                                        << (was_applied ? "no longer taken out" : "taken out") << " from t=" << m.t
+                                        << " (the fit explains " << 100.0 * vehicle_field_.explainedFraction()
+                                        << " % of the geomagnetic samples' spread)"));
+    // The gate's site values and heading reference rest on the samples seen so far: measure them
+    // again with the fit now used (else the uncorrected ones hold the medians for minutes).
+    if (applied != was_applied || (applied && geomagnetic_history_.size() % kSiteRestartSamples == 0)) {
+      std::vector<GeomagneticCandidate> history;
+      history.reserve(geomagnetic_history_.size());
+      for (const MeasuredGeomagnetic& h : geomagnetic_history_) history.push_back(candidateOf(h));
+      geomagnetic_gate_.restartSite(history);
+    }
+  }
+  geomagnetic_history_.push_back(m);
+  gated_[id] = geomagnetic_history_.size() - 1;
+  applyGeomagneticVerdicts(geomagnetic_gate_.add(candidateOf(m)));
+}
+
 void PoseGraphManagerCore::recorrectYawFactors() {
   if (vehicle_field_.numSamples() == 0) return;
-  for (const RunYawSample& y : run_yaw_samples_)
-    map_.setYawMeasurementField(y.measurement, y.field_b - vehicle_field_.vehicleField(y.motion));
+  for (const auto& [measurement, sample] : run_yaw_factors_) {
+    const MeasuredGeomagnetic& m = geomagnetic_history_[sample];
+    map_.setYawMeasurementField(measurement, m.field_b - vehicle_field_.vehicleField(m.motion));
+  }
 }
 
 void PoseGraphManagerCore::processReady(bool flush) {
@@ -294,16 +334,17 @@ void PoseGraphManagerCore::processReady(bool flush) {
 
 void PoseGraphManagerCore::applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts) {
   for (const GeomagneticVerdict& v : verdicts) {
-    const auto measured = gated_samples_.find(v.candidate.node);
-    std::optional<RunYawSample> sample;
-    if (measured != gated_samples_.end()) {
-      sample = RunYawSample{map_.yawMeasurements().size(), measured->second.first, measured->second.second};
-      gated_samples_.erase(measured);
+    const auto gated = gated_.find(v.candidate.node);
+    std::optional<size_t> sample;
+    if (gated != gated_.end()) {
+      sample = gated->second;
+      gated_.erase(gated);
     }
     if (v.accepted) {
+      const size_t measurement = map_.yawMeasurements().size();
       if (map_.addYawMeasurement(v.candidate.node, v.candidate.field_b)) {
         ++stats_.yaw_factors;
-        if (sample) run_yaw_samples_.push_back(*sample);
+        if (sample) run_yaw_factors_.emplace_back(measurement, *sample);
       }
       continue;
     }
@@ -340,27 +381,7 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
       if (std::abs(g.t - p.t) <= options_.geomagnetic_max_dt_s &&
           (nearest == nullptr || std::abs(g.t - p.t) < std::abs(nearest->t - p.t)))
         nearest = &g;
-    if (nearest != nullptr) {
-      const MapNode& node = map_.node(p.node);
-      const Eigen::Matrix3d R_odom_b = node.pose.T_odom_b.linear();
-      const std::optional<ForwardMotion> motion = forwardMotionAt(p.node);
-      if (motion) {
-        const bool was_applied = vehicle_field_.applied();
-        vehicle_field_.add(node.session, p.t, R_odom_b, nearest->field_body, *motion);
-        if (vehicle_field_.applied() != was_applied)
-          logger_->info(kComponent,
-                        VIMS_STR(std::fixed << std::setprecision(1) << "vehicle field "
-                                            << (was_applied ? "no longer taken out" : "taken out") << " from t=" << p.t
-                                            << " (the fit explains " << 100.0 * vehicle_field_.explainedFraction()
-                                            << " % of the geomagnetic samples' spread)"));
-      }
-      // Without the motion (a session's first two keyframes) only the constant part is known.
-      const Eigen::Vector3d field_b =
-          nearest->field_body - vehicle_field_.vehicleField(motion.value_or(ForwardMotion{}));
-      gated_samples_[p.node] = {nearest->field_body, motion.value_or(ForwardMotion{})};
-      applyGeomagneticVerdicts(
-          geomagnetic_gate_.add(GeomagneticGate::levelled(p.node, node.session, p.t, field_b, R_odom_b)));
-    }
+    if (nearest != nullptr) gateGeomagnetic(p.node, nearest->field_body);
   }
 
   std::optional<Eigen::Vector3d> signature;

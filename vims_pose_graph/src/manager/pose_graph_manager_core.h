@@ -103,6 +103,16 @@ class PoseGraphManagerCore {
     DescribedPoints points;
   };
 
+  /// A geomagnetic sample given to the gate, as measured, with what correcting it again needs.
+  struct MeasuredGeomagnetic {
+    PoseGraphNodeId node = 0;
+    uint32_t session = 0;
+    double t = 0.0;
+    Eigen::Vector3d field_b = Eigen::Vector3d::Zero();
+    ForwardMotion motion;
+    Eigen::Matrix3d R_odom_b = Eigen::Matrix3d::Identity();
+  };
+
   /// Whether a keyframe about to become node `new_node` at world position p_w_b, joining the
   /// component of node `component_node`, would only repeat a visual submap already in the map
   /// (LoopDetectorOptions::redundant_submap_radius_m).
@@ -122,6 +132,10 @@ class PoseGraphManagerCore {
   void logVehicleField() const;
   /// Gives this run's yaw factors the vehicle's field of the current fit (before each solve).
   void recorrectYawFactors();
+  /// Feeds a keyframe's geomagnetic sample to the vehicle-field fit and, corrected, to the gate.
+  void gateGeomagnetic(PoseGraphNodeId node, const Eigen::Vector3d& field_b);
+  /// The sample as the gate sees it: the vehicle's field of the current fit taken out, levelled.
+  GeomagneticCandidate candidateOf(const MeasuredGeomagnetic& m) const;
   /// Turns the gate's verdicts into yaw factors (accepted) or counted, logged rejections.
   void applyGeomagneticVerdicts(const std::vector<GeomagneticVerdict>& verdicts);
   void pruneBuffers();
@@ -139,16 +153,11 @@ class PoseGraphManagerCore {
   MultiScaleMap map_;
   MagneticSubmapBuilder magnetic_builder_;
   GeomagneticGate geomagnetic_gate_;
-  VehicleFieldEstimator vehicle_field_;  ///< taken out of the geomagnetic samples before the gate
-  /// A yaw factor of this run as measured, re-corrected with each new fit of the vehicle's field.
-  struct RunYawSample {
-    size_t measurement = 0;  ///< index into the map's yaw measurements
-    Eigen::Vector3d field_b = Eigen::Vector3d::Zero();
-    ForwardMotion motion;
-  };
-  /// Samples waiting for the gate, as measured (by node), and the accepted ones.
-  std::map<PoseGraphNodeId, std::pair<Eigen::Vector3d, ForwardMotion>> gated_samples_;
-  std::vector<RunYawSample> run_yaw_samples_;
+  VehicleFieldEstimator vehicle_field_;                   ///< taken out of the geomagnetic samples before the gate
+  std::vector<MeasuredGeomagnetic> geomagnetic_history_;  ///< every sample of this run given to the gate
+  std::map<PoseGraphNodeId, size_t> gated_;               ///< awaiting a verdict: node -> history index
+  /// This run's yaw factors: (index into the map's yaw measurements, history index).
+  std::vector<std::pair<size_t, size_t>> run_yaw_factors_;
   bool map_loaded_ = false;
   std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;
