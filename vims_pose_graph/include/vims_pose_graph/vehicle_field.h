@@ -110,7 +110,6 @@ class VehicleFieldEstimator {
     double weight = 0.0;  ///< sum w (A_FF = weight I)
     Eigen::Matrix<double, 3, kUnknowns> A_Ftheta = Eigen::Matrix<double, 3, kUnknowns>::Zero();
     Eigen::Vector3d b_F = Eigen::Vector3d::Zero();
-    size_t count = 0;
   };
   void forget(double t);
   void solve();

@@ -125,7 +125,7 @@ void GeomagneticGate::restartSite(const std::vector<GeomagneticCandidate>& histo
   std::sort(magnitudes_.begin(), magnitudes_.end());
   std::sort(inclinations_.begin(), inclinations_.end());
   azimuths_.clear();
-  if (magnitudes_.size() < kMinSamplesToJudge || history.empty()) return;
+  if (magnitudes_.size() < kMinSamplesToJudge) return;
   const double oldest_needed = history.back().t - kSlopeHorizonWindows * options_.heading_window_s;
   for (const GeomagneticCandidate& c : history) {
     GeomagneticVerdict unused;

@@ -99,7 +99,6 @@ void VehicleFieldEstimator::add(uint32_t session, double t, const Eigen::Matrix3
   s.weight += 1.0;
   s.A_Ftheta += R_odom_b * Phi;
   s.b_F += R_odom_b * field_b;
-  ++s.count;
   ++num_samples_;
   solve();
 }

@@ -285,6 +285,7 @@ void PoseGraphManagerCore::gateGeomagnetic(PoseGraphNodeId id, const Eigen::Vect
     const bool was_applied = vehicle_field_.applied();
     vehicle_field_.add(m.session, m.t, m.R_odom_b, field_b, *motion);
     const bool applied = vehicle_field_.applied();
+    yaw_factors_may_hold_correction_ = yaw_factors_may_hold_correction_ || applied;
     if (applied != was_applied)
       logger_->info(kComponent,
                     VIMS_STR(std::fixed << std::setprecision(1) << "vehicle field "
@@ -306,7 +307,8 @@ void PoseGraphManagerCore::gateGeomagnetic(PoseGraphNodeId id, const Eigen::Vect
 }
 
 void PoseGraphManagerCore::recorrectYawFactors() {
-  if (vehicle_field_.numSamples() == 0) return;
+  // A vehicle whose fit was never used has its factors as measured: nothing to redo.
+  if (!yaw_factors_may_hold_correction_) return;
   for (const auto& [measurement, sample] : run_yaw_factors_) {
     const MeasuredGeomagnetic& m = geomagnetic_history_[sample];
     map_.setYawMeasurementField(measurement, m.field_b - vehicle_field_.vehicleField(m.motion));

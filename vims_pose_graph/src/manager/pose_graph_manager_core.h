@@ -158,6 +158,8 @@ class PoseGraphManagerCore {
   std::map<PoseGraphNodeId, size_t> gated_;               ///< awaiting a verdict: node -> history index
   /// This run's yaw factors: (index into the map's yaw measurements, history index).
   std::vector<std::pair<size_t, size_t>> run_yaw_factors_;
+  /// The vehicle-field fit has been used at some point of the run (recorrectYawFactors has work).
+  bool yaw_factors_may_hold_correction_ = false;
   bool map_loaded_ = false;
   std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;
