@@ -64,7 +64,7 @@ TEST(OfflineRunner, WritesSummaryWithMessageCountsAndRealTimeFactor) {
   EXPECT_EQ(countLines(out / "sonar_filtered.csv", &header), messages["/sonar/range"]["count"].as<int>());
   EXPECT_EQ(header, "t,raw_range,filtered_range,accepted,status");
   const int windows = countLines(out / "mag_signatures.csv", &header);
-  EXPECT_EQ(header, "t,E,N,U,snr,valid,invalid_reason");
+  EXPECT_EQ(header, "t,E,N,U,snr,valid,coil,invalid_reason");
   EXPECT_NEAR(windows, (duration - 2.0) / 0.4, 3.0);
   EXPECT_EQ(summary["magnetometer"]["windows"].as<int>(), windows);
   EXPECT_GT(summary["sonar_filter"]["accepted"].as<int>(), 0.9 * messages["/sonar/range"]["count"].as<int>());

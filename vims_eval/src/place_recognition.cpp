@@ -24,6 +24,7 @@
 #include "vims_eval/map_figures.h"
 #include "vims_eval/plot.h"
 #include "vims_eval/report.h"
+#include "vims_pose_graph/loop_detector.h"
 #include "vims_pose_graph/pose_graph_manager.h"
 
 namespace fs = std::filesystem;
@@ -50,8 +51,9 @@ struct Signature {
   Eigen::Vector3d enu = Eigen::Vector3d::Zero();
 };
 
-/// Reads the valid rows of mag_signatures.csv (header t,E,N,U,snr,valid,invalid_reason; column
-/// order taken from the header), sorted by time.
+/// Reads the valid rows of mag_signatures.csv (header t,E,N,U,snr,valid,coil,invalid_reason;
+/// column order taken from the header) of the first coil (this study compares one coil's
+/// signatures; a file without the coil column has one coil), sorted by time.
 std::vector<Signature> readValidSignatures(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open '" + path + "'");
@@ -79,6 +81,7 @@ std::vector<Signature> readValidSignatures(const std::string& path) {
     try {
       if (f.size() < header.size() - 1) throw std::invalid_argument("too few fields");
       if (std::stoi(f.at(column["valid"])) != 1) continue;
+      if (column.count("coil") && std::stoi(f.at(column["coil"])) != 0) continue;
       Signature s;
       s.t = std::stod(f.at(column["t"]));
       s.enu = {std::stod(f.at(column["E"])), std::stod(f.at(column["N"])), std::stod(f.at(column["U"]))};
@@ -338,19 +341,10 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
     // signature the stage is skipped (every historical keyframe is in the pool).
     std::fill(in_pool.begin(), in_pool.end(), 0);
     if (sig[x]) {
-      std::vector<std::pair<double, std::size_t>> passed;
-      for (std::size_t s = 0; s < submaps.size(); ++s) {
-        if (!historical(x, submaps[s].tied_node)) continue;
-        const double d = signatureDistance(*sig[x], submaps[s].signature_enu);
-        if (d <= options.loop.mag_distance_relative * submaps[s].signature_enu.norm() +
-                     options.loop.mag_distance_floor_tesla)
-          passed.emplace_back(d, s);
-      }
-      std::sort(passed.begin(), passed.end());
-      if (passed.size() > static_cast<std::size_t>(options.loop.mag_max_candidates))
-        passed.resize(static_cast<std::size_t>(options.loop.mag_max_candidates));
-      for (const auto& [d, s] : passed)
-        for (PoseGraphNodeId y : clustered[s]) in_pool[y] = 1;
+      const std::vector<MagneticStageMatch> passed = magneticStageMatches(
+          {{0, *sig[x]}}, submaps, options.loop, [&](const MagneticSubmap& s) { return historical(x, s.tied_node); });
+      for (const MagneticStageMatch& m : passed)
+        for (PoseGraphNodeId y : clustered[m.submap]) in_pool[y] = 1;
       for (PoseGraphNodeId y = 0; y < n; ++y)
         if (!map.node(y).magnetic_coverage) in_pool[y] = 1;
     } else {

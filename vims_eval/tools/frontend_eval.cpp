@@ -88,6 +88,12 @@ std::string MagEvaluation::summaryLine() const {
          " heading_median_raw_diff_pct=" + fmt(heading_median_raw_diff_pct, 2) + " median_snr=" + fmt(median_snr, 1);
 }
 
+std::string MagCoilEvaluation::summaryLine() const {
+  return "VIMS_MAG_COIL coil=" + std::to_string(coil) + " frequency_hz=" + fmt(frequency_hz, 3) +
+         " scored=" + std::to_string(scored) + " median_rel_err_pct=" + fmt(median_rel_err_pct, 2) +
+         " p90_rel_err_pct=" + fmt(p90_rel_err_pct, 2);
+}
+
 SonarEvaluation evaluateSonar(const std::string& sequence_dir, const SonarFilterOptions& options, LoggerPtr logger,
                               const std::string& csv_path) {
   if (!logger) logger = Logger::nullLogger();
@@ -165,6 +171,7 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
   if (!csv_path.empty()) csv.emplace(csv_path);
   struct Scored {
     double t;
+    int coil;
     Eigen::Vector3d p_w_m;
     double heading;
     Eigen::Vector3d measured;
@@ -172,6 +179,8 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
   };
   std::vector<Scored> scored;
   std::vector<double> rel_errors, snrs;
+  // Per coil of the truth: index = SignatureWindow::coil.
+  std::vector<std::vector<double>> coil_rel_errors(static_cast<size_t>(truth.coilCount()));
   MagEvaluation ev;
   for (const SignatureWindow& sig : signatures) {
     if (csv) csv->write(sig);
@@ -179,19 +188,38 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
     if (!sig.valid) continue;
     ++ev.valid_windows;
     snrs.push_back(sig.snr);
+    const sim::CoilDipole* coil = truth.coilAt(sig.coil);
+    if (!coil) {
+      if (ev.unknown_coil++ == 0) {
+        logger->warn(kComponent, "signature windows of coil " + std::to_string(sig.coil) + ", but the truth has " +
+                                     std::to_string(truth.coilCount()) + " coil(s): not scored");
+      }
+      continue;
+    }
     const auto T_w_b = truthAt(seq.gt, sig.t);
     if (!T_w_b) continue;
     const Eigen::Vector3d p_w_m = (*T_w_b * seq.config.magnetometer.T_b_m).translation();
-    const Eigen::Vector3d g = canonicalSignature(truth.coil.peakField(p_w_m));
+    const Eigen::Vector3d g = canonicalSignature(coil->peakField(p_w_m));
     if (g.norm() < eval_options.min_amplitude_t) continue;
     const Eigen::Vector3d x_w = T_w_b->linear().col(0);
-    scored.push_back({sig.t, p_w_m, std::atan2(x_w.y(), x_w.x()), sig.amplitude_enu, g});
+    scored.push_back({sig.t, sig.coil, p_w_m, std::atan2(x_w.y(), x_w.x()), sig.amplitude_enu, g});
     rel_errors.push_back((sig.amplitude_enu - g).norm() / g.norm());
+    coil_rel_errors[static_cast<size_t>(sig.coil)].push_back(rel_errors.back());
   }
   ev.scored = static_cast<long>(scored.size());
   ev.median_rel_err_pct = 100.0 * percentile(rel_errors, 0.5);
   ev.p90_rel_err_pct = 100.0 * percentile(rel_errors, 0.9);
   ev.median_snr = percentile(snrs, 0.5);
+  for (int i = 0; i < truth.coilCount(); ++i) {
+    MagCoilEvaluation coil;
+    coil.coil = i;
+    coil.frequency_hz = truth.coilAt(i)->frequency;
+    const std::vector<double>& errors = coil_rel_errors[static_cast<size_t>(i)];
+    coil.scored = static_cast<long>(errors.size());
+    coil.median_rel_err_pct = 100.0 * percentile(errors, 0.5);
+    coil.p90_rel_err_pct = 100.0 * percentile(errors, 0.9);
+    ev.coils.push_back(coil);
+  }
 
   std::vector<double> compensated, raw;
   const double min_heading = eval_options.pair_min_heading_deg * M_PI / 180.0;
@@ -199,6 +227,7 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
     for (std::size_t j = i + 1; j < scored.size(); ++j) {
       const Scored& a = scored[i];
       const Scored& b = scored[j];
+      if (a.coil != b.coil) continue;              // different coils' signatures are never compared
       if (b.t - a.t < options.window_s) continue;  // overlapping windows share data
       if ((a.p_w_m - b.p_w_m).norm() > eval_options.pair_radius_m) continue;
       const double dh = std::abs(std::atan2(std::sin(a.heading - b.heading), std::cos(a.heading - b.heading)));

@@ -16,6 +16,11 @@
 /// pair_min_heading_deg; the figure is |(s_i - s_j) - (g_i - g_j)| / mean(|g_i|, |g_j|), i.e. how
 /// much the two measurements differ beyond what the field itself changes between the two
 /// (slightly different) positions. The uncompensated |s_i - s_j| / mean(|g|) is reported too.
+///
+/// Several coils (vims_sim --coil-frequencies): a window is scored against the truth coil whose
+/// index is its SignatureWindow::coil (0: the truth's `coil`, i: `other_coils[i - 1]`), pairs are
+/// formed between windows of the same coil only, and the median / p90 error is also given per
+/// coil. A valid window naming a coil the truth does not have is not scored (`unknown_coil`).
 
 #include <string>
 #include <vector>
@@ -49,6 +54,17 @@ struct MagEvaluationOptions {
   double pair_min_heading_deg = 45.0;
 };
 
+/// The scores of one coil of a sequence with several.
+struct MagCoilEvaluation {
+  int coil = 0;               ///< index in the sequence's coil list
+  double frequency_hz = 0.0;  ///< the truth's (at the sequence start)
+  long scored = 0;
+  double median_rel_err_pct = 0.0;
+  double p90_rel_err_pct = 0.0;
+  /// "VIMS_MAG_COIL coil=.. frequency_hz=.. scored=.. median_rel_err_pct=.. p90_rel_err_pct=.."
+  std::string summaryLine() const;
+};
+
 struct MagEvaluation {
   long windows = 0;
   long valid_windows = 0;
@@ -59,7 +75,10 @@ struct MagEvaluation {
   double heading_median_rel_diff_pct = 0.0;  ///< compensated for the field change (see above)
   double heading_median_raw_diff_pct = 0.0;  ///< |s_i - s_j| / mean |g|
   double median_snr = 0.0;
-  /// "VIMS_MAG windows=.. valid=.. scored=.. median_rel_err_pct=.. heading_pairs=.. ..."
+  long unknown_coil = 0;  ///< valid windows whose coil index the truth does not have (not scored)
+  /// One per truth coil, in the sequence's order (a single entry for a sequence of one coil).
+  std::vector<MagCoilEvaluation> coils;
+  /// "VIMS_MAG windows=.. valid=.. scored=.. median_rel_err_pct=.. heading_pairs=.. ..." (all coils)
   std::string summaryLine() const;
 };
 

@@ -1,6 +1,7 @@
 // vims_frontend_eval: scores the sonar filter or the magnetic signature extractor on a simulated
 // sequence against its ground truth (see frontend_eval.h for the definitions) and prints the
-// figures plus one parseable summary line (VIMS_SONAR ... / VIMS_MAG ...).
+// figures plus one parseable summary line (VIMS_SONAR ... / VIMS_MAG ...; with several coils also
+// one VIMS_MAG_COIL ... line per coil).
 //
 //   vims_frontend_eval sonar --sequence DIR [--options config/sonar.yaml] [--csv sonar_filtered.csv]
 //   vims_frontend_eval mag   --sequence DIR [--options config/magnetometer.yaml] [--csv mag_signatures.csv]
@@ -94,12 +95,23 @@ int main(int argc, char** argv) {
                   ev.valid_windows, eval_options.min_amplitude_t * 1e9, ev.scored, ev.median_snr);
       std::printf("  relative amplitude error: median %.2f %%, 90th percentile %.2f %%\n", ev.median_rel_err_pct,
                   ev.p90_rel_err_pct);
+      if (ev.coils.size() > 1) {
+        for (const auto& coil : ev.coils) {
+          std::printf(
+              "  coil %d (%.3f Hz): scored %ld, relative amplitude error: median %.2f %%, 90th percentile %.2f %%\n",
+              coil.coil, coil.frequency_hz, coil.scored, coil.median_rel_err_pct, coil.p90_rel_err_pct);
+        }
+      }
+      if (ev.unknown_coil > 0)
+        std::printf("  %ld valid windows of a coil the truth does not have (not scored)\n", ev.unknown_coil);
       std::printf(
           "  same spot (< %.1f m), heading differing by > %.0f deg: %ld pairs, median difference beyond the "
           "field change %.2f %% (raw difference %.2f %%)\n",
           eval_options.pair_radius_m, eval_options.pair_min_heading_deg, ev.heading_pairs,
           ev.heading_median_rel_diff_pct, ev.heading_median_raw_diff_pct);
       std::printf("%s\n", ev.summaryLine().c_str());
+      if (ev.coils.size() > 1)
+        for (const auto& coil : ev.coils) std::printf("%s\n", coil.summaryLine().c_str());
     }
   } catch (const std::exception& e) {
     std::cerr << "vims_frontend_eval: " << e.what() << "\n";

@@ -16,14 +16,27 @@ MagneticFrontEnd::MagneticFrontEnd(const MagnetometerOptions& options, const Mag
       gravity_(gravity),
       logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
-  if (!calibration_.other_coil_frequencies_hz.empty()) {
-    logger_->warn(kComponent, VIMS_STR("the sequence lists " << calibration_.other_coil_frequencies_hz.size() + 1
-                                                             << " coils; signatures are extracted at the first ("
-                                                             << calibration_.coil_frequency_hz
-                                                             << " Hz): places near the others close visually"));
-  }
   if (calibration_.coilFrequencyKnown()) {
-    extractor_ = std::make_unique<SignatureExtractor>(options_, calibration_, gravity_, logger_);
+    std::vector<double> frequencies{calibration_.coil_frequency_hz};
+    frequencies.insert(frequencies.end(), calibration_.other_coil_frequencies_hz.begin(),
+                       calibration_.other_coil_frequencies_hz.end());
+    // Another coil's main lobe inside a coil's noise bins raises that coil's noise floor.
+    const double min_separation_hz = (options_.snr_outer_bins + 2) / options_.window_s;
+    for (size_t i = 0; i < frequencies.size(); ++i) {
+      MagnetometerCalibration coil = calibration_;
+      coil.coil_frequency_hz = frequencies[i];
+      coil.other_coil_frequencies_hz.clear();
+      extractors_.push_back(
+          std::make_unique<SignatureExtractor>(options_, coil, gravity_, logger_, static_cast<int>(i)));
+      for (size_t j = 0; j < i; ++j)
+        if (std::abs(frequencies[i] - frequencies[j]) < min_separation_hz)
+          logger_->warn(kComponent, VIMS_STR("coils " << j << " (" << frequencies[j] << " Hz) and " << i << " ("
+                                                      << frequencies[i] << " Hz) are closer than " << min_separation_hz
+                                                      << " Hz: each one's line raises the other's noise floor, so "
+                                                         "their SNR is lower"));
+    }
+    if (frequencies.size() > 1)
+      logger_->info(kComponent, VIMS_STR("measuring " << frequencies.size() << " coils, one signature per coil"));
   } else {
     logger_->info(kComponent, VIMS_STR("the sequence leaves the coil frequency open: searching "
                                        << options_.coil_search.window_s << " s of data for it"));
@@ -33,8 +46,8 @@ MagneticFrontEnd::MagneticFrontEnd(const MagnetometerOptions& options, const Mag
 MagneticFrontEnd::~MagneticFrontEnd() = default;
 
 void MagneticFrontEnd::feedImu(const ImuSample& sample) {
-  if (extractor_) {
-    extractor_->feedImu(sample);
+  if (!extractors_.empty()) {
+    for (const auto& extractor : extractors_) extractor->feedImu(sample);
   } else {
     imu_buffer_.push_back(sample);
   }
@@ -42,8 +55,9 @@ void MagneticFrontEnd::feedImu(const ImuSample& sample) {
 
 void MagneticFrontEnd::feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
                                std::vector<GeomagneticSample>* geomagnetic) {
-  if (extractor_) {
-    extractor_->feedMag(sample, signatures, geomagnetic);
+  if (!extractors_.empty()) {
+    extractors_.front()->feedMag(sample, signatures, geomagnetic);  // the geomagnetic source
+    for (size_t i = 1; i < extractors_.size(); ++i) extractors_[i]->feedMag(sample, signatures, nullptr);
     return;
   }
   if (!mag_buffer_.empty() && !(sample.t >= mag_buffer_.back().t)) {
@@ -80,7 +94,7 @@ void MagneticFrontEnd::search(std::vector<SignatureWindow>* signatures, std::vec
   MagnetometerCalibration found = calibration_;
   found.coil_frequency_hz = line.frequency_hz;
   try {
-    extractor_ = std::make_unique<SignatureExtractor>(options_, found, gravity_, logger_);
+    extractors_.push_back(std::make_unique<SignatureExtractor>(options_, found, gravity_, logger_));
   } catch (const ConfigError& e) {
     // The options do not suit this frequency (e.g. too few periods in a window): a line that
     // low or high is not a coil VIMS can use; keep searching.
@@ -93,20 +107,25 @@ void MagneticFrontEnd::search(std::vector<SignatureWindow>* signatures, std::vec
   logger_->info(kComponent, VIMS_STR("coil frequency found: " << line.frequency_hz << " Hz (" << line.peak_to_median
                                                               << "x the power around it)"));
   // Replay the buffered samples in time order (IMU first at equal stamps, as a bag would).
+  SignatureExtractor& extractor = *extractors_.front();
   auto imu = imu_buffer_.begin();
   for (const MagSample& m : mag_buffer_) {
-    for (; imu != imu_buffer_.end() && imu->t <= m.t; ++imu) extractor_->feedImu(*imu);
-    extractor_->feedMag(m, signatures, geomagnetic);
+    for (; imu != imu_buffer_.end() && imu->t <= m.t; ++imu) extractor.feedImu(*imu);
+    extractor.feedMag(m, signatures, geomagnetic);
   }
-  for (; imu != imu_buffer_.end(); ++imu) extractor_->feedImu(*imu);
+  for (; imu != imu_buffer_.end(); ++imu) extractor.feedImu(*imu);
   mag_buffer_.clear();
   imu_buffer_.clear();
 }
 
-double MagneticFrontEnd::coilFrequency() const { return extractor_ ? calibration_.coil_frequency_hz : 0.0; }
+double MagneticFrontEnd::coilFrequency() const { return extractors_.empty() ? 0.0 : calibration_.coil_frequency_hz; }
 
 SignatureExtractorStats MagneticFrontEnd::stats() const {
-  SignatureExtractorStats s = extractor_ ? extractor_->stats() : SignatureExtractorStats{};
+  SignatureExtractorStats s = extractors_.empty() ? SignatureExtractorStats{} : extractors_.front()->stats();
+  for (size_t i = 1; i < extractors_.size(); ++i) {
+    s.windows += extractors_[i]->stats().windows;
+    s.valid_windows += extractors_[i]->stats().valid_windows;
+  }
   s.mag_samples += dropped_samples_;
   return s;
 }

@@ -131,6 +131,7 @@ class MagnetometerNode {
       out.header.frame_id = world_frame_;
       out.window_start = ros::Time(s.t_start);
       out.window_end = ros::Time(s.t_end);
+      out.coil = static_cast<uint8_t>(s.coil);
       out.frequency_hz = s.frequency_hz;
       out.amplitude_enu = toVector3(s.amplitude_enu);
       out.geomagnetic_body = toVector3(s.geomagnetic_body);

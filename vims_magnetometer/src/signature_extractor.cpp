@@ -46,11 +46,12 @@ MovingAverageLength chooseMovingAverage(double rate_hz, double coil_frequency_hz
 }
 
 SignatureExtractor::SignatureExtractor(const MagnetometerOptions& options, const MagnetometerCalibration& calibration,
-                                       double gravity, LoggerPtr logger)
+                                       double gravity, LoggerPtr logger, int coil)
     : options_(options),
       calibration_(calibration),
       R_b_m_(calibration.T_b_m.linear()),
       logger_(logger ? std::move(logger) : Logger::nullLogger()),
+      coil_(coil),
       attitude_(options.attitude, gravity, calibration.declination_deg * M_PI / 180.0,
                 // attitudeAt() must reach back to the centre of the moving average, plus margin.
                 0.5 * options.geomagnetic_min_periods * 4.0 / knownCoilFrequency(calibration) + 1.0, logger_) {
@@ -305,6 +306,7 @@ SignatureWindow SignatureExtractor::computeWindow(double* peak_offset_hz) const 
   sig.t_start = oldest.t;
   sig.t_end = newest.t;
   sig.t = 0.5 * (oldest.t + newest.t);
+  sig.coil = coil_;
   sig.frequency_hz = frequency_hz_;
   const double dominant_abs = std::abs(X[dominant]);
   if (dominant_abs > 0.0) {

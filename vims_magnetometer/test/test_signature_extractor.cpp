@@ -384,16 +384,17 @@ TEST(SignatureCsvWriter, WritesHeaderAndRows) {
     writer.write(sig);
     sig.valid = false;
     sig.flags = kSignatureGap;
+    sig.coil = 2;
     writer.write(sig);
   }
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);
-  EXPECT_EQ(line, "t,E,N,U,snr,valid,invalid_reason");
+  EXPECT_EQ(line, "t,E,N,U,snr,valid,coil,invalid_reason");
   std::getline(in, line);
-  EXPECT_EQ(line, "12.500000,1.000000e-06,-2.500000e-07,3.000000e-08,1234,1,");
+  EXPECT_EQ(line, "12.500000,1.000000e-06,-2.500000e-07,3.000000e-08,1234,1,0,");
   std::getline(in, line);
-  EXPECT_EQ(line, "12.500000,1.000000e-06,-2.500000e-07,3.000000e-08,1234,0,gap");
+  EXPECT_EQ(line, "12.500000,1.000000e-06,-2.500000e-07,3.000000e-08,1234,0,2,gap");
   std::remove(path.c_str());
   EXPECT_THROW(SignatureCsvWriter("/nonexistent_dir/x.csv"), std::runtime_error);
 }

@@ -12,6 +12,7 @@
 #include <random>
 #include <sstream>
 
+#include "vims_common/fnv1a.h"
 #include "vims_pose_graph/angles.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/loop_csv.h"
@@ -236,6 +237,7 @@ MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary,
   MagneticSubmapDraft d;
   d.tied_node = 4;
   d.t = 104.2;
+  d.coil = 3;
   d.signature_enu = Eigen::Vector3d(1e-7, -2e-7, 3e-7);
   d.radius_m = 0.8;
   d.num_members = 9;
@@ -317,6 +319,7 @@ TEST(MapFile, RoundTripIsByteIdentical) {
   EXPECT_EQ(loaded.yawMeasurements().size(), 2u);
   ASSERT_EQ(loaded.magneticSubmaps().size(), 1u);
   EXPECT_EQ(loaded.magneticSubmaps()[0].signature_enu, map.magneticSubmaps()[0].signature_enu);
+  EXPECT_EQ(loaded.magneticSubmaps()[0].coil, 3);
   // Components survive: the link and the loop join both sessions.
   EXPECT_TRUE(loaded.sameComponent(0, 11));
   // The BoW database answers the same.
@@ -360,6 +363,26 @@ TEST(MapFile, CorruptFilesGiveClearErrors) {
   version[8] = 99;
   EXPECT_NE(loadBytes(version).find("unsupported version 99"), std::string::npos);
   EXPECT_NE(loadBytes({}).find("test.vmap"), std::string::npos);
+
+  // A version-1 file (before several coils: no coil index) still loads; its submaps are coil 0's.
+  // The map's one submap is last: tied node, t, coil, signature, radius, members, then the checksum.
+  std::vector<uint8_t> v1 = good;
+  const size_t coil_offset = v1.size() - 8 - 4 - 8 - 24 - 4;
+  ASSERT_EQ(v1[coil_offset], 3);
+  v1.erase(v1.begin() + static_cast<std::ptrdiff_t>(coil_offset),
+           v1.begin() + static_cast<std::ptrdiff_t>(coil_offset + 4));
+  v1[8] = 1;
+  uint64_t payload = 0;
+  for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(v1[12 + i]) << (8 * i);
+  payload -= 4;
+  for (int i = 0; i < 8; ++i) v1[12 + static_cast<size_t>(i)] = static_cast<uint8_t>(payload >> (8 * i));
+  const uint64_t checksum = fnv1a64(v1.data(), v1.size() - 8);
+  for (int i = 0; i < 8; ++i) v1[v1.size() - 8 + static_cast<size_t>(i)] = static_cast<uint8_t>(checksum >> (8 * i));
+  MultiScaleMap old(vocabulary, PoseGraphOptions(), 0.0);
+  EXPECT_EQ(errorOf([&] { old.deserialize(v1, "v1.vmap"); }), "");
+  ASSERT_EQ(old.magneticSubmaps().size(), 1u);
+  EXPECT_EQ(old.magneticSubmaps()[0].coil, 0);
+  EXPECT_EQ(old.magneticSubmaps()[0].signature_enu, Eigen::Vector3d(1e-7, -2e-7, 3e-7));
 
   // A map built with BRIEF descriptors cannot be used by an ORB run (and vice versa).
   const auto brief = loadVocabulary("brief_k8l4.vocab");

@@ -488,7 +488,7 @@ TEST(HierarchicalLoopDetector, MagneticStageRestrictsBowToClusteredSubmaps) {
   // The query revisits C (turned by 150 deg) but reports A's signature: magnetism says "near A".
   const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.5, 30.1), 2.6, 150.0);
   LoopQuery q = pass.addQuery(world.keyframe(100.0, 9, T_w_bq, T_w_bq), T_w_bq);
-  q.signature_enu = s_a * 1.05;
+  q.signatures_enu = {{0, s_a * 1.05}};
   const MagneticSubmapOptions mo;
   HierarchicalLoopDetector full(testLoopOptions(), mo, ModeSettings::forMode(LoopClosingMode::kFull), world.camera());
   const DetectionResult r = full.detect(q, pass.map);
@@ -514,7 +514,7 @@ TEST(HierarchicalLoopDetector, MagneticStageRestrictsBowToClusteredSubmaps) {
   EXPECT_GT(r2.accepted->bow_score, 0.0);
 
   // With C's signature the full hierarchy finds it too, and the attempt carries the magnetic distance.
-  q.signature_enu = s_c;
+  q.signatures_enu = {{0, s_c}};
   const DetectionResult r3 = full.detect(q, pass.map);
   ASSERT_TRUE(r3.accepted);
   EXPECT_GE(r3.accepted->match_node, 7u);
@@ -523,7 +523,7 @@ TEST(HierarchicalLoopDetector, MagneticStageRestrictsBowToClusteredSubmaps) {
   expectPoseNear(r3.accepted->T_match_query, gt, 0.1, 1.0);
 
   // A signature far from every submap: rejected at the magnetic stage, one record.
-  q.signature_enu = Eigen::Vector3d(-5e-6, 5e-6, 1e-6);
+  q.signatures_enu = {{0, Eigen::Vector3d(-5e-6, 5e-6, 1e-6)}};
   const DetectionResult r4 = full.detect(q, pass.map);
   EXPECT_FALSE(r4.accepted);
   ASSERT_EQ(r4.attempts.size(), 1u);
@@ -548,7 +548,7 @@ TEST(HierarchicalLoopDetector, KeyframesWithoutMagneticCoverageStayInTheSearch) 
   pass.map.addMagneticSubmap(da);
   const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.4, 29.9), 2.6, -100.0);
   LoopQuery q = pass.addQuery(world.keyframe(100.0, 9, T_w_bq, T_w_bq), T_w_bq);
-  q.signature_enu = da.signature_enu;
+  q.signatures_enu = {{0, da.signature_enu}};
   HierarchicalLoopDetector full(testLoopOptions(), MagneticSubmapOptions(),
                                 ModeSettings::forMode(LoopClosingMode::kFull), world.camera());
   const DetectionResult r = full.detect(q, pass.map);

@@ -198,7 +198,7 @@ TEST(HierarchicalLoopDetector, ProximityCandidatesBringAPlaceTheOtherStagesMiss)
   d.signature_enu = Eigen::Vector3d(2.0e-6, -1.0e-6, 3.0e-6);
   d.radius_m = 1.0;
   revisit.map.addMagneticSubmap(d);
-  revisit.query.signature_enu = Eigen::Vector3d(-4.0e-6, 1.0e-6, 0.5e-6);
+  revisit.query.signatures_enu = {{0, Eigen::Vector3d(-4.0e-6, 1.0e-6, 0.5e-6)}};
   const ModeSettings full = ModeSettings::forMode(LoopClosingMode::kFull);
 
   o.proximity_candidates = 0;

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "vims_common/magnetic_signature.h"
+#include "vims_pose_graph/loop_detector.h"
 #include "vims_pose_graph/magnetic_submap.h"
 
 namespace vims {
@@ -175,6 +176,91 @@ TEST(MagneticSubmaps, SummarySmoothsAroundTheMedianAndWalksTheRadiusOutwards) {
   ASSERT_TRUE(d2);
   // distances 0 (ok), 1 (x=1 and x=3: ok), 2 (x=0: ok; x=4: 2.0 differs) -> stops at 2 after x=0
   EXPECT_DOUBLE_EQ(d2->radius_m, 2.0);
+}
+
+TEST(MagneticSubmaps, AGroupHoldsOneCoil) {
+  MagneticSubmapOptions o;
+  o.min_members = 1;
+  MagneticSubmapBuilder builder(o);
+  PlacedSignature a;
+  a.t = 0.0;
+  a.coil = 0;
+  a.signature_enu = Eigen::Vector3d(1e-7, 0.0, 2e-7);
+  EXPECT_FALSE(builder.add(a));
+  PlacedSignature b = a;  // the same field, measured of another coil
+  b.t = 0.4;
+  b.coil = 1;
+  const std::optional<MagneticSubmapDraft> closed = builder.add(b);
+  ASSERT_TRUE(closed);
+  EXPECT_EQ(closed->coil, 0);
+  EXPECT_EQ(closed->num_members, 1u);
+  const std::optional<MagneticSubmapDraft> last = builder.breakGroup();
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->coil, 1);
+}
+
+std::vector<MagneticSubmap> coilSubmaps(const std::vector<std::pair<int, Eigen::Vector3d>>& coil_signatures) {
+  std::vector<MagneticSubmap> out;
+  for (const auto& [coil, signature] : coil_signatures) {
+    MagneticSubmap s;
+    s.id = static_cast<uint32_t>(out.size());
+    s.tied_node = s.id;
+    s.coil = coil;
+    s.signature_enu = signature;
+    out.push_back(s);
+  }
+  return out;
+}
+
+TEST(MagneticStage, ComparesEachSubmapWithTheQuerysSignatureOfItsCoil) {
+  const Eigen::Vector3d s(2e-7, -1e-7, 3e-7);
+  const Eigen::Vector3d far(-5e-6, 5e-6, 1e-6);
+  const std::vector<MagneticSubmap> submaps = coilSubmaps({{0, s}, {1, s}, {1, far}});
+  const LoopDetectorOptions options;
+  auto all = [](const MagneticSubmap&) { return true; };
+  std::optional<MagneticStageMatch> nearest;
+
+  std::vector<MagneticStageMatch> m = magneticStageMatches({{1, s}}, submaps, options, all, &nearest);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].submap, 1u);
+  ASSERT_TRUE(nearest);
+  EXPECT_EQ(nearest->submap, 1u);
+
+  m = magneticStageMatches({{0, s}}, submaps, options, all, &nearest);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].submap, 0u);
+
+  // A coil no submap measured: nothing passes and nothing is the nearest.
+  EXPECT_TRUE(magneticStageMatches({{2, s}}, submaps, options, all, &nearest).empty());
+  EXPECT_FALSE(nearest);
+
+  // Far from coil 1's submaps and coil 0 unheard: nothing passes; the nearest is reported.
+  EXPECT_TRUE(magneticStageMatches({{1, 0.5 * far + 0.5 * s}}, submaps, options, all, &nearest).empty());
+  ASSERT_TRUE(nearest);
+
+  // Both coils heard: both places are candidates; the filter still applies.
+  m = magneticStageMatches({{0, s}, {1, s}}, submaps, options, all);
+  EXPECT_EQ(m.size(), 2u);
+  m = magneticStageMatches({{0, s}, {1, s}}, submaps, options, [](const MagneticSubmap& x) { return x.coil == 1; });
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].submap, 1u);
+}
+
+TEST(MagneticStage, KeepsTheNearestCandidatesOfEachCoil) {
+  const Eigen::Vector3d s(2e-7, -1e-7, 3e-7);
+  const Eigen::Vector3d weak(1e-8, 0.0, 2e-8);
+  // Coil 0 strong (its distances in tesla are large), coil 1 weak: a cut over both coils
+  // together would keep coil 1's submaps only.
+  const std::vector<MagneticSubmap> submaps =
+      coilSubmaps({{0, 1.05 * s}, {0, 1.1 * s}, {0, 1.15 * s}, {1, weak}, {1, 1.01 * weak}});
+  LoopDetectorOptions options;
+  options.mag_max_candidates = 2;
+  const std::vector<MagneticStageMatch> m =
+      magneticStageMatches({{0, s}, {1, weak}}, submaps, options, [](const MagneticSubmap&) { return true; });
+  ASSERT_EQ(m.size(), 4u);
+  std::vector<uint32_t> ids;
+  for (const MagneticStageMatch& x : m) ids.push_back(x.submap);
+  EXPECT_EQ(ids, (std::vector<uint32_t>{3, 4, 0, 1}));  // nearest first over both coils
 }
 
 }  // namespace

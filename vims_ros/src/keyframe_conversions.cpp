@@ -162,6 +162,7 @@ bool toSignatureWindow(const vims::MagneticSignature& msg, SignatureWindow* out,
   window.t = toSec(msg.header.stamp);
   window.t_start = toSec(msg.window_start);
   window.t_end = toSec(msg.window_end);
+  window.coil = msg.coil;
   window.frequency_hz = msg.frequency_hz;
   window.amplitude_enu = toEigen(msg.amplitude_enu);
   window.geomagnetic_body = toEigen(msg.geomagnetic_body);

@@ -12,6 +12,11 @@ namespace vims {
 namespace sim {
 namespace {
 
+/// At most this many coils (--coil-frequencies).
+constexpr int kMaxCoils = 8;
+/// [Hz] Two coils' lines separate in the signature's 2 s Hann window (bins of 0.5 Hz) this far apart.
+constexpr double kMinCoilSeparationHz = 1.0;
+
 std::invalid_argument argError(const std::string& flag, const std::string& message) {
   return std::invalid_argument(flag + ": " + message);
 }
@@ -155,6 +160,45 @@ void SimOptions::validate() const {
   requireInRange("--imu-rate-hz", rates.imu, 100.0, 1000.0, "Hz");
   requireInRange("--sonar-rate-hz", rates.sonar, 1.0, 20.0, "Hz");
   requireInRange("--mag-rate-hz", rates.magnetometer, 200.0, 2000.0, "Hz");
+  if (!other_coil_frequencies_hz.empty()) {
+    // Several coils: every frequency as --coil-frequency's, pairwise 1 Hz apart (two bins of the
+    // signature's 2 s window, so the lines separate), the same drift for all (it keeps them apart).
+    const char* flag = "--coil-frequencies";
+    if (coil_frequency_unknown) {
+      throw argError(flag,
+                     "conflicts with --coil-frequency-unknown (a sequence of several coils states their "
+                     "frequencies)");
+    }
+    if (1 + other_coil_frequencies_hz.size() > static_cast<size_t>(kMaxCoils)) {
+      throw argError(flag, "at most " + std::to_string(kMaxCoils) + " coils");
+    }
+    std::vector<double> all{coil_frequency_hz};
+    all.insert(all.end(), other_coil_frequencies_hz.begin(), other_coil_frequencies_hz.end());
+    char buf[200];
+    for (size_t i = 0; i < all.size(); ++i) {
+      requireInRange(flag, all[i], 2.0, 200.0, "Hz");
+      if (all[i] >= 0.45 * rates.magnetometer) {
+        std::snprintf(buf, sizeof(buf), "%g Hz must be below 0.45 x the magnetometer's rate (--mag-rate-hz)", all[i]);
+        throw argError(flag, buf);
+      }
+      if (all[i] + coil_frequency_drift_hz < 2.0 || all[i] + coil_frequency_drift_hz >= 0.45 * rates.magnetometer) {
+        std::snprintf(buf, sizeof(buf),
+                      "takes the %g Hz coil's frequency out of [2 Hz, 0.45 x the magnetometer's rate)", all[i]);
+        throw argError("--coil-frequency-drift-hz", buf);
+      }
+      for (size_t j = 0; j < i; ++j) {
+        if (std::abs(all[i] - all[j]) < kMinCoilSeparationHz) {
+          std::snprintf(buf, sizeof(buf),
+                        "%g Hz and %g Hz are closer than %g Hz (their lines would not separate in a 2 s window)",
+                        all[j], all[i], kMinCoilSeparationHz);
+          throw argError(flag, buf);
+        }
+      }
+    }
+  } else if (coil_spacing_m != SimOptions().coil_spacing_m) {
+    throw argError("--coil-spacing", "needs --coil-frequencies (one coil)");
+  }
+  requireInRange("--coil-spacing", coil_spacing_m, 1.0, 100.0, "m");
   requireInRange("--coil-frequency", coil_frequency_hz, 2.0, 200.0, "Hz");
   if (coil_frequency_hz >= 0.45 * rates.magnetometer) {
     throw argError("--coil-frequency", "must be below 0.45 x the magnetometer's rate (--mag-rate-hz)");
@@ -193,9 +237,32 @@ void SimOptions::validate() const {
   }
 }
 
+namespace {
+
+/// "F1,F2,...": two or more numbers.
+std::vector<double> parseFrequencyList(const std::string& flag, const std::string& text) {
+  std::vector<double> list;
+  size_t begin = 0;
+  while (true) {
+    const size_t comma = text.find(',', begin);
+    list.push_back(
+        parseDouble(flag, text.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin)));
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  if (list.size() < 2) {
+    throw argError(flag, "expected two or more comma-separated frequencies (F1,F2,...), got '" + text +
+                             "' (one coil: --coil-frequency)");
+  }
+  return list;
+}
+
+}  // namespace
+
 std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& args) {
   SimOptions options;
   bool have_scenario = false, have_duration = false, have_seed = false, have_out = false, altitude_hold = false;
+  bool have_coil_frequency = false, have_coil_frequencies = false;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& flag = args[i];
     if (flag == "--help" || flag == "-h") return std::nullopt;
@@ -297,7 +364,17 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     } else if (flag == "--pressure-spikes") {
       options.pressure.spike_fraction = parseDouble(flag, value);
     } else if (flag == "--coil-frequency") {
+      if (have_coil_frequencies) throw argError(flag, "conflicts with --coil-frequencies");
       options.coil_frequency_hz = parseDouble(flag, value);
+      have_coil_frequency = true;
+    } else if (flag == "--coil-frequencies") {
+      if (have_coil_frequency) throw argError(flag, "conflicts with --coil-frequency (list every coil's frequency)");
+      const std::vector<double> list = parseFrequencyList(flag, value);
+      options.coil_frequency_hz = list.front();
+      options.other_coil_frequencies_hz.assign(list.begin() + 1, list.end());
+      have_coil_frequencies = true;
+    } else if (flag == "--coil-spacing") {
+      options.coil_spacing_m = parseDouble(flag, value);
     } else if (flag == "--coil-frequency-drift-hz") {
       options.coil_frequency_drift_hz = parseDouble(flag, value);
     } else if (flag == "--thruster-line-hz") {
@@ -379,8 +456,16 @@ Options:
   --coil-frequency HZ      the seabed coil's frequency, 2-200 Hz (default 11, the paper's)
   --coil-frequency-unknown the sequence YAML says coil_frequency_hz: null (contract v2: VIMS finds
                            it from the data); the truth file keeps it
+  --coil-frequencies F1,F2,...  two or more coils (at most 8; instead of --coil-frequency and not
+                           with --coil-frequency-unknown), each 2-200 Hz, below 0.45 x the
+                           magnetometer's rate and at least 1 Hz from the others; the same hardware,
+                           each its own free-running phase. The YAML lists them all
+  --coil-spacing M         with --coil-frequencies: the further coils lie on the base lap M m
+                           (1-100, default 30) from the first (horizontally), at least M from each
+                           other where the lap allows (else as far as it allows; world seed)
   --coil-frequency-drift-hz D  the coil's frequency drifts linearly by D Hz (|D| <= 2) over the
-                           sequence; the YAML states the frequency at the start
+                           sequence (every coil's by the same D); the YAML states the frequency at
+                           the start
   --thrusters              the vehicle's two thrusters disturb the magnetometer: lines at the
                            motors' electrical frequency (~ sqrt(thrust)), a static offset and
                            broadband noise (~ thrust); thrust from drag (v|v|) and inertia (m a)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +27,8 @@ enum : uint64_t {
   kStreamPressureRig = 0x9b0e,
   kStreamExtrinsicError = 0xe4c0,
   kStreamThrusters = 0x7412,
+  kStreamOtherCoilSites = 0xc02a,   // world seed: which point at the spacing holds each further coil
+  kStreamOtherCoilPhases = 0xc02f,  // trajectory seed: the further coils' free-running phases
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -86,6 +89,69 @@ SiteModel makeSite(Scenario scenario, uint64_t world_seed) {
   site.coil.frequency = 11.0;
   site.coil.phase = 0.0;
   return site;
+}
+
+std::vector<Eigen::Vector2d> placeOtherCoils(Scenario scenario, const Eigen::Vector2d& first, int count,
+                                             double spacing_m, uint64_t world_seed) {
+  std::vector<Eigen::Vector2d> placed;
+  if (count <= 0) return placed;
+  // Candidates on the closed base lap: a point every 0.1 m of each leg, the legs' exact crossings
+  // of the circle of radius spacing_m round the first coil, and the legs' nearest points to it.
+  const auto lap = scenarioLapWaypoints(scenario);
+  const ScenarioArea area = scenarioArea(scenario);
+  std::vector<Eigen::Vector2d> candidates;
+  for (size_t i = 0; i < lap.size(); ++i) {
+    const Eigen::Vector2d a = lap[i], d = lap[(i + 1) % lap.size()] - lap[i];
+    const double length = d.norm();
+    if (length < 1e-9) continue;
+    const int steps = static_cast<int>(std::ceil(length / 0.1));
+    for (int k = 0; k < steps; ++k) candidates.push_back(a + (static_cast<double>(k) / steps) * d);
+    // |a + s d - first|^2 = spacing^2 for s in [0, 1].
+    const Eigen::Vector2d r = a - first;
+    const double qa = d.squaredNorm(), qb = 2.0 * d.dot(r), qc = r.squaredNorm() - spacing_m * spacing_m;
+    const double discriminant = qb * qb - 4.0 * qa * qc;
+    if (discriminant >= 0.0) {
+      for (const double sign : {-1.0, 1.0}) {
+        const double s = (-qb + sign * std::sqrt(discriminant)) / (2.0 * qa);
+        if (s >= 0.0 && s <= 1.0) candidates.push_back(a + s * d);
+      }
+    }
+    candidates.push_back(a + std::max(0.0, std::min(1.0, -d.dot(r) / qa)) * d);
+  }
+  for (Eigen::Vector2d& c : candidates) {  // inside the area, as the first coil
+    c.x() = std::max(-area.half_size_x + 1.0, std::min(area.half_size_x - 1.0, c.x()));
+    c.y() = std::max(-area.half_size_y + 1.0, std::min(area.half_size_y - 1.0, c.y()));
+  }
+
+  Rng rng(deriveSeed(world_seed, kStreamOtherCoilSites));
+  constexpr double kTie = 1e-6;  // [m] candidates this close to the best are equally good
+  for (int n = 0; n < count; ++n) {
+    // Distance to the nearest coil placed so far, the first one included.
+    const auto clearance = [&](const Eigen::Vector2d& p) {
+      double nearest = (p - first).norm();
+      for (const Eigen::Vector2d& q : placed) nearest = std::min(nearest, (p - q).norm());
+      return nearest;
+    };
+    bool any_clear = false;
+    for (const Eigen::Vector2d& c : candidates) any_clear = any_clear || clearance(c) >= spacing_m - kTie;
+    // With room: the distance from the first coil closest to the spacing, among the points at
+    // least the spacing from every earlier coil. Without: the farthest from the earlier coils.
+    const auto cost = [&](const Eigen::Vector2d& c) {
+      if (any_clear) {
+        return clearance(c) >= spacing_m - kTie ? std::abs((c - first).norm() - spacing_m)
+                                                : std::numeric_limits<double>::infinity();
+      }
+      return -clearance(c);
+    };
+    double best = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector2d& c : candidates) best = std::min(best, cost(c));
+    std::vector<Eigen::Vector2d> ties;
+    for (const Eigen::Vector2d& c : candidates)
+      if (cost(c) <= best + kTie) ties.push_back(c);
+    const auto pick = std::min(ties.size() - 1, static_cast<size_t>(rng.uniform() * static_cast<double>(ties.size())));
+    placed.push_back(ties[pick]);
+  }
+  return placed;
 }
 
 namespace {
@@ -251,6 +317,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
   site.coil.frequency = options.coil_frequency_hz;
   // The truth file keeps the frequency; the sequence YAML may leave it for VIMS to find (null).
   cfg.magnetometer.coil_frequency_hz = options.coil_frequency_unknown ? 0.0 : site.coil.frequency;
+  cfg.magnetometer.other_coil_frequencies_hz = options.other_coil_frequencies_hz;
   cfg.magnetometer.declination_deg = site.geomagnetic.declination_deg;
 
   // --- The truth.
@@ -268,6 +335,23 @@ SimSetup buildSimSetup(const SimOptions& options) {
   Rng phase_rng(deriveSeed(options.seed, kStreamCoilPhase));
   truth.coil.phase = phase_rng.uniform(0.0, 2.0 * M_PI);  // the coil runs freely: its phase differs per dive
   truth.coil.frequency_rate = options.coil_frequency_drift_hz / options.duration;
+  if (!options.other_coil_frequencies_hz.empty()) {
+    // Further coils: the first one's hardware on the base lap at the spacing from it (world
+    // seed), each its own free-running phase (their own stream: the first coil's is unchanged),
+    // all drifting by the same number of hertz.
+    const auto positions = placeOtherCoils(options.scenario, site.coil.position_w.head<2>(),
+                                           static_cast<int>(options.other_coil_frequencies_hz.size()),
+                                           options.coil_spacing_m, options.worldSeed());
+    Rng other_phase_rng(deriveSeed(options.seed, kStreamOtherCoilPhases));
+    for (size_t i = 0; i < positions.size(); ++i) {
+      CoilDipole other = truth.coil;
+      other.position_w = Eigen::Vector3d(positions[i].x(), positions[i].y(), 0.0);
+      if (!setup.terrain->isFlat()) other.position_w.z() = setup.terrain->height(positions[i].x(), positions[i].y());
+      other.frequency = options.other_coil_frequencies_hz[i];
+      other.phase = other_phase_rng.uniform(0.0, 2.0 * M_PI);
+      truth.other_coils.push_back(other);
+    }
+  }
   truth.geomagnetic = site.geomagnetic;
   if (options.thrusters.enabled) {
     ThrusterInterference th;

@@ -102,6 +102,56 @@ std::string terrainYaml(const TerrainParams& p) {
   return os.str();
 }
 
+/// The keys of one coil, each line indented by `indent` (the first by `first`: a list item's "- ").
+std::string coilYaml(const CoilDipole& coil, const std::string& first, const std::string& indent) {
+  std::ostringstream os;
+  os << first << "position_enu: " << vec(coil.position_w) << "  # [m] world ENU, coil centre\n"
+     << indent << "moment_enu: " << vec(coil.peakMoment()) << "  # [A m^2] peak, = turns * current_a * pi d^2 / 4\n"
+     << indent << "turns: " << coil.turns << "\n"
+     << indent << "current_a: " << num(coil.current) << "  # peak\n"
+     << indent << "diameter_m: " << num(coil.diameter) << "\n"
+     << indent << "frequency_hz: " << num(coil.frequency) << "\n"
+     << indent << "phase_rad: " << num(coil.phase) << "\n";
+  if (coil.frequency_rate != 0.0)
+    os << indent << "frequency_rate_hz_per_s: " << num(coil.frequency_rate)
+       << "  # a drifting coil: frequency_hz + rate (t - start_time), phase its integral\n";
+  return os.str();
+}
+
+CoilDipole readCoil(const ConfigReader& coil) {
+  coil.rejectUnknownKeys({"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad",
+                          "frequency_rate_hz_per_s"});
+  CoilDipole c;
+  c.position_w = readVec3(coil, "position_enu");
+  c.turns = coil.get<int>("turns");
+  if (c.turns <= 0) throw coil.error("turns", "must be > 0");
+  c.current = coil.get<double>("current_a");
+  c.diameter = coil.get<double>("diameter_m");
+  requirePositive(coil, "diameter_m", c.diameter);
+  c.frequency = coil.get<double>("frequency_hz");
+  requirePositive(coil, "frequency_hz", c.frequency);
+  c.phase = coil.get<double>("phase_rad");
+  if (coil.has("frequency_rate_hz_per_s")) c.frequency_rate = coil.get<double>("frequency_rate_hz_per_s");
+  if ((readVec3(coil, "moment_enu") - c.peakMoment()).norm() > 1e-9 * (1.0 + c.peakMoment().norm())) {
+    throw coil.error("moment_enu", "inconsistent with turns, current_a and diameter_m");
+  }
+  return c;
+}
+
+/// The optional list `other_coils`: each item a mapping with the keys of `coil`.
+std::vector<CoilDipole> readOtherCoils(const ConfigReader& root) {
+  std::vector<CoilDipole> coils;
+  if (!root.has("other_coils")) return coils;
+  const YAML::Node list = root.node()["other_coils"];
+  if (!list.IsSequence()) throw root.error("other_coils", "expected a list of coils (mappings with the keys of coil)");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string path = root.keyPath("other_coils") + "[" + std::to_string(i) + "]";
+    if (!list[i].IsMap()) throw ConfigError(root.source() + ": " + path + ": expected a mapping with the keys of coil");
+    coils.push_back(readCoil(ConfigReader(list[i], path, root.source())));
+  }
+  return coils;
+}
+
 TerrainParams readTerrain(const ConfigReader& root) {
   const ConfigReader t = root.child("terrain");
   t.rejectUnknownKeys({"seed", "slope_deg", "slope_azimuth_deg", "relief_m", "relief_wavelength_m", "roughness_m",
@@ -193,16 +243,11 @@ std::string SimTruth::toYaml() const {
      << "travel_m: " << num(travel) << "\n"
      << "camera_time_delay: " << num(camera_time_delay) << "  # image stamp = exposure time + delay\n"
      << "coil:  # current I(t) = current_a * sin(2 pi frequency_hz (t - start_time) + phase_rad)\n"
-     << "  position_enu: " << vec(coil.position_w) << "  # [m] world ENU, coil centre\n"
-     << "  moment_enu: " << vec(coil.peakMoment()) << "  # [A m^2] peak, = turns * current_a * pi d^2 / 4\n"
-     << "  turns: " << coil.turns << "\n"
-     << "  current_a: " << num(coil.current) << "  # peak\n"
-     << "  diameter_m: " << num(coil.diameter) << "\n"
-     << "  frequency_hz: " << num(coil.frequency) << "\n"
-     << "  phase_rad: " << num(coil.phase) << "\n";
-  if (coil.frequency_rate != 0.0)
-    os << "  frequency_rate_hz_per_s: " << num(coil.frequency_rate)
-       << "  # a drifting coil: frequency_hz + rate (t - start_time), phase its integral\n";
+     << coilYaml(coil, "  ", "  ");
+  if (!other_coils.empty()) {
+    os << "other_coils:  # the further coils, entries 1, 2, ... of NAME.yaml's coil_frequency_hz list (keys as coil)\n";
+    for (const CoilDipole& other : other_coils) os << coilYaml(other, "  - ", "    ");
+  }
   os << "geomagnetic:\n"
      << "  field_enu: " << vec(geomagnetic.fieldEnu()) << "  # [T]\n"
      << "  total_t: " << num(geomagnetic.total) << "\n"
@@ -281,6 +326,7 @@ SimTruth SimTruth::load(const std::string& path) {
                           "travel_m",
                           "camera_time_delay",
                           "coil",
+                          "other_coils",
                           "geomagnetic",
                           "imu_initial_bias",
                           "dropouts",
@@ -306,22 +352,8 @@ SimTruth SimTruth::load(const std::string& path) {
   t.travel = root.get<double>("travel_m");
   t.camera_time_delay = root.get<double>("camera_time_delay");
 
-  const ConfigReader coil = root.child("coil");
-  coil.rejectUnknownKeys({"position_enu", "moment_enu", "turns", "current_a", "diameter_m", "frequency_hz", "phase_rad",
-                          "frequency_rate_hz_per_s"});
-  t.coil.position_w = readVec3(coil, "position_enu");
-  t.coil.turns = coil.get<int>("turns");
-  if (t.coil.turns <= 0) throw coil.error("turns", "must be > 0");
-  t.coil.current = coil.get<double>("current_a");
-  t.coil.diameter = coil.get<double>("diameter_m");
-  requirePositive(coil, "diameter_m", t.coil.diameter);
-  t.coil.frequency = coil.get<double>("frequency_hz");
-  requirePositive(coil, "frequency_hz", t.coil.frequency);
-  t.coil.phase = coil.get<double>("phase_rad");
-  if (coil.has("frequency_rate_hz_per_s")) t.coil.frequency_rate = coil.get<double>("frequency_rate_hz_per_s");
-  if ((readVec3(coil, "moment_enu") - t.coil.peakMoment()).norm() > 1e-9 * (1.0 + t.coil.peakMoment().norm())) {
-    throw coil.error("moment_enu", "inconsistent with turns, current_a and diameter_m");
-  }
+  t.coil = readCoil(root.child("coil"));
+  t.other_coils = readOtherCoils(root);  // absent: one coil (older files)
 
   const ConfigReader geo = root.child("geomagnetic");
   geo.rejectUnknownKeys({"field_enu", "total_t", "inclination_deg", "declination_deg"});

@@ -128,7 +128,7 @@ TEST(Magnetometer, MeasuresTheFieldInItsOwnFrame) {
   const double t = 0.0123;
   const Eigen::Isometry3d T_w_m = T_w_b * T_b_m;
   const Eigen::Vector3d expected = T_w_m.linear().transpose() * (geo.fieldEnu() + coil.field(T_w_m.translation(), t));
-  const MagneticWorld world{geo.fieldEnu(), coil, std::nullopt};
+  const MagneticWorld world{geo.fieldEnu(), coil, std::nullopt, {}};
   EXPECT_LT((MagnetometerSimulator::trueField(T_w_b, T_b_m, world, t) - expected).norm(), 1e-18);
   // Noise: 5 nT per axis and sample.
   MagnetometerParams params;
@@ -151,7 +151,7 @@ TEST(MagneticAnomaly, InducedAlongTheFieldWithTheRequestedPeakAndAnInverseCubeFa
   const Eigen::Vector3d farther = a.position_w + 2.0 * (above - a.position_w);
   EXPECT_LT((a.field(farther) * 8.0 - a.field(above)).norm(), 1e-15);
   // The world adds it to the constant geomagnetic field; 500 m away it is down by (5/500)^3 = 1e-6.
-  const MagneticWorld world{geo.fieldEnu(), CoilDipole{}, a};
+  const MagneticWorld world{geo.fieldEnu(), CoilDipole{}, a, {}};
   const Eigen::Vector3d far_away(400.0, 300.0, 1.5);
   EXPECT_LT((world.fieldEnu(far_away, 0.0) - geo.fieldEnu() - world.coil.field(far_away, 0.0)).norm(), 4e-12);
 }
@@ -226,4 +226,38 @@ TEST(ThrusterInterference, TheMagnetometerSeesTheLinesTheOffsetAndTheNoise) {
   }
   EXPECT_NEAR(crossings_x, 90, 1);  // two per period
   EXPECT_NEAR(crossings_y, 93.6, 1.5);
+}
+
+TEST(MagneticWorld, SumsTheFieldsOfEveryCoil) {
+  GeomagneticField geo;
+  CoilDipole first = referenceCoil();
+  CoilDipole second = first;
+  second.position_w = Eigen::Vector3d(25.0, -16.0, 0.0);
+  second.frequency = 17.0;
+  second.phase = 1.1;
+  CoilDipole third = first;
+  third.position_w = Eigen::Vector3d(-20.0, 14.0, -0.4);
+  third.frequency = 23.0;
+  third.phase = 4.2;
+  MagneticWorld world{geo.fieldEnu(), first, std::nullopt, {second, third}};
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.5, -1.0, 3.0), Eigen::Vector3d(24.0, -15.0, 2.0), Eigen::Vector3d(-19.0, 13.0, 1.5)}) {
+    for (const double t : {0.0, 0.0123, 0.31}) {
+      const Eigen::Vector3d expected = geo.fieldEnu() + first.field(p, t) + second.field(p, t) + third.field(p, t);
+      EXPECT_LT((world.fieldEnu(p, t) - expected).norm(), 1e-18);
+    }
+  }
+  // Next to the second coil its field dominates: the magnetometer sees it.
+  const Eigen::Vector3d near_second(25.0, -16.0, 2.0);
+  EXPECT_GT(second.peakField(near_second).norm(), 100.0 * first.peakField(near_second).norm());
+  const double t = 0.5 / 17.0 / 2.0 - second.phase / (2.0 * M_PI * 17.0);  // the second coil at its peak
+  EXPECT_GT((MagnetometerSimulator::trueField(Eigen::Isometry3d::Identity() * Eigen::Translation3d(near_second),
+                                              Eigen::Isometry3d::Identity(), world, t) -
+             geo.fieldEnu())
+                .norm(),
+            0.9 * second.peakField(near_second).norm());
+  // Without further coils the sum is the one coil's, bit for bit as before they existed.
+  world.other_coils.clear();
+  const Eigen::Vector3d p(0.5, -1.0, 3.0);
+  EXPECT_EQ(world.fieldEnu(p, 0.2), geo.fieldEnu() + first.field(p, 0.2));
 }

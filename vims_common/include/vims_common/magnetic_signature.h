@@ -24,6 +24,9 @@ struct SignatureWindow {
   double t = 0.0;        ///< window centre [s]
   double t_start = 0.0;  ///< first sample of the window [s]
   double t_end = 0.0;    ///< last sample of the window [s]
+  /// The coil this window measures: its index in the sequence's coil_frequency_hz list (0 for
+  /// the first or only coil). Signatures of different coils are never compared.
+  int coil = 0;
   double frequency_hz = 0.0;
   Eigen::Vector3d amplitude_enu = Eigen::Vector3d::Zero();     ///< signed peak amplitude [T], ENU
   Eigen::Vector3d geomagnetic_body = Eigen::Vector3d::Zero();  ///< mean geomagnetic field [T], body

@@ -9,7 +9,17 @@
 /// is built for that frequency and the buffered samples are fed to it in time order, so the first
 /// windows are not lost (their outputs come out with the call that found the line). Not found
 /// (no coil in reach yet): the older half of the buffer is dropped and the search repeats when
-/// the buffer is full again; the magnetic outputs wait, and loop closing works visually.
+/// the buffer is full again; the magnetic outputs wait, and loop closing works visually. The
+/// search finds one coil (the strongest line).
+///
+/// Several coils (contract v2: a list of frequencies): one SignatureExtractor per coil, each fed
+/// every sample, whose windows carry the coil's index (SignatureWindow::coil). Each measures its
+/// coil with a Hann-windowed DTFT at that coil's frequency, where the other coils' lines leak
+/// nothing measurable when they are a few bins away (a warning names coils closer than the SNR's
+/// noise bins, whose lines raise the noise floor and lower the SNR). The geomagnetic output comes
+/// from the first coil's extractor: its moving average spans whole periods of the first coil, and
+/// attenuates another coil's line at f by ~1 / (pi f T) (T its length, ~1 s): a ripple that the
+/// pose graph's geomagnetic gate rejects near that coil, where it matters.
 
 #include <deque>
 #include <memory>
@@ -32,10 +42,13 @@ class MagneticFrontEnd {
   void feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
                std::vector<GeomagneticSample>* geomagnetic);
 
-  /// The coil frequency in use [Hz]: the sequence's, or the one found; 0 while searching.
+  /// The (first) coil's frequency in use [Hz]: the sequence's, or the one found; 0 while searching.
   double coilFrequency() const;
-  /// The extractor's counters (samples still buffered for the search are not counted yet;
-  /// samples dropped by a search that found nothing are in `mag_samples` only).
+  /// Coils measured (0 while searching).
+  int coils() const { return static_cast<int>(extractors_.size()); }
+  /// The first coil's extractor's counters, with `windows` and `valid_windows` summed over every
+  /// coil (samples still buffered for the search are not counted yet; samples dropped by a search
+  /// that found nothing are in `mag_samples` only).
   SignatureExtractorStats stats() const;
   /// Spectrum searches run so far (0 when the sequence states the frequency).
   int searches() const { return searches_; }
@@ -47,7 +60,8 @@ class MagneticFrontEnd {
   MagnetometerCalibration calibration_;
   double gravity_;
   LoggerPtr logger_;
-  std::unique_ptr<SignatureExtractor> extractor_;
+  /// One per coil, in the sequence's order; empty while searching.
+  std::vector<std::unique_ptr<SignatureExtractor>> extractors_;
   std::deque<MagSample> mag_buffer_;
   std::deque<ImuSample> imu_buffer_;
   long dropped_samples_ = 0;

@@ -65,9 +65,11 @@ struct SignatureExtractorStats {
 
 class SignatureExtractor {
  public:
-  /// Throws ConfigError if the options do not suit the sensor. `gravity` is imu.gravity.
+  /// Throws ConfigError if the options do not suit the sensor. `gravity` is imu.gravity. The
+  /// extractor measures the coil at calibration.coil_frequency_hz; its windows carry `coil` (the
+  /// coil's index in the sequence's list).
   SignatureExtractor(const MagnetometerOptions& options, const MagnetometerCalibration& calibration, double gravity,
-                     LoggerPtr logger = Logger::nullLogger());
+                     LoggerPtr logger = Logger::nullLogger(), int coil = 0);
 
   void feedImu(const ImuSample& sample) { attitude_.feedImu(sample); }
   /// Appends finished windows to `signatures` and geomagnetic outputs to `geomagnetic` (either
@@ -110,6 +112,7 @@ class SignatureExtractor {
   MagnetometerCalibration calibration_;
   Eigen::Matrix3d R_b_m_;
   LoggerPtr logger_;
+  int coil_;
   AttitudeFilter attitude_;
   MovingAverageLength moving_average_;
   int window_samples_;

@@ -122,16 +122,17 @@ struct LoopDetectorOptions {
   bool keep_culled_bow_vectors = true;
 
   // --- magnetic stage
-  /// The query's signature is the valid one nearest in time within this [s] (hop 0.4 s: one is
-  /// always within 0.2 s while the coil is heard). None: the stage is skipped with a warning.
+  /// The query's signature of each coil is that coil's valid one nearest in time within this [s]
+  /// (hop 0.4 s: one is always within 0.2 s while the coil is heard). None: the stage is skipped with a warning.
   double query_signature_max_dt_s = 0.5;
-  /// A magnetic submap i is a candidate when |s_q - s_i| <= relative * |s_i| + floor.
+  /// A magnetic submap i is a candidate when |s_q - s_i| <= relative * |s_i| + floor, s_q the
+  /// query's signature of submap i's coil (submaps of coils the query did not hear are not).
   /// relative = 2 x max_relative_variation: the query may lie anywhere inside the submap's radius
   /// and margin (up to the variation threshold from the representative) plus its own noise; the
   /// floor is the amplitude noise of two windows (tesla).
   double mag_distance_relative = 0.5;
   double mag_distance_floor_tesla = 1.0e-9;
-  /// Candidates kept (smallest distance first). Overlapping submaps make several near-equal
+  /// Candidates kept per coil (smallest distance first). Overlapping submaps make several near-equal
   /// candidates at a revisit; 5 keeps them without letting a weak, ambiguous field open the whole map.
   int mag_max_candidates = 5;
 

@@ -15,7 +15,9 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -70,8 +72,9 @@ struct LoopQuery {
   /// addition to `points` against candidates seen from higher up
   /// (LoopDetectorOptions::query_seabed_min_level_shift).
   DescribedPoints seabed_points;
-  /// The query's magnetic signature (ENU amplitude, tesla) when a valid one is near its time.
-  std::optional<Eigen::Vector3d> signature_enu;
+  /// The query's magnetic signatures (ENU amplitude, tesla) by coil: per coil the valid one
+  /// nearest its time, when one is (LoopDetectorOptions::query_signature_max_dt_s).
+  std::map<int, Eigen::Vector3d> signatures_enu;
 };
 
 /// Result of geometric verification of one candidate.
@@ -180,6 +183,23 @@ struct DetectionResult {
   /// Verified after the BoW candidates (LoopDetectorOptions::proximity_candidates), nearest first.
   std::vector<PoseGraphNodeId> proximity_candidates;
 };
+
+/// A magnetic submap that passed the magnetic stage's test.
+struct MagneticStageMatch {
+  double distance_tesla = 0.0;  ///< signatureDistance to the query's signature of its coil
+  uint32_t submap = 0;
+};
+/// The magnetic stage's test (paper, hierarchical loop closing), per coil: each submap for which
+/// `considered` holds and whose coil the query heard passes when its signature is within
+/// mag_distance_relative * |s_i| + mag_distance_floor_tesla of the query's signature of that
+/// coil; of each coil the nearest mag_max_candidates are kept. Returned nearest first.
+/// `nearest` (optional) receives the nearest considered submap of a heard coil whether it passed
+/// or not (nothing when there is none).
+std::vector<MagneticStageMatch> magneticStageMatches(const std::map<int, Eigen::Vector3d>& query_signatures,
+                                                     const std::vector<MagneticSubmap>& submaps,
+                                                     const LoopDetectorOptions& options,
+                                                     const std::function<bool(const MagneticSubmap&)>& considered,
+                                                     std::optional<MagneticStageMatch>* nearest = nullptr);
 
 /// The loop candidates' exclusion: true when `candidate` is a keyframe of the current run (not
 /// loaded) that is not older than a query keyframe with id `query` at time `t_query`, or within

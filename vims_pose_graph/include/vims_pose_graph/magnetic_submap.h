@@ -16,10 +16,15 @@
 
 namespace vims {
 
+/// The largest coil index (SignatureWindow::coil) the pose graph and its map file accept: the
+/// MagneticSignature message carries it as a uint8.
+constexpr int kMaxCoilIndex = 255;
+
 /// A valid signature placed on the trajectory.
 struct PlacedSignature {
   double t = 0.0;
-  uint32_t session = 0;                                     ///< map session of the keyframes it was placed with
+  int coil = 0;          ///< SignatureWindow::coil: a group, and so a submap, holds one coil's signatures
+  uint32_t session = 0;  ///< map session of the keyframes it was placed with
   Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();         ///< body position at t in the session's VIO frame
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< amplitude vector [T], ENU
   PoseGraphNodeId nearest_node = 0;                         ///< keyframe nearest in time
@@ -29,6 +34,7 @@ struct PlacedSignature {
 struct MagneticSubmapDraft {
   PoseGraphNodeId tied_node = 0;  ///< keyframe nearest in time to the median member
   double t = 0.0;                 ///< median member's time
+  int coil = 0;                   ///< the coil its signature measures
   uint32_t session = 0;
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();  ///< smoothed signature at the median [T]
   Eigen::Vector3d p_odom = Eigen::Vector3d::Zero();         ///< median member's position (VIO frame)
@@ -42,6 +48,7 @@ struct MagneticSubmap {
   uint32_t id = 0;
   PoseGraphNodeId tied_node = 0;
   double t = 0.0;
+  int coil = 0;  ///< the coil its signature measures (index in the sequence's coil list)
   Eigen::Vector3d signature_enu = Eigen::Vector3d::Zero();
   double radius_m = 0.0;
   uint32_t num_members = 0;
@@ -57,8 +64,9 @@ struct MagneticSubmap {
 std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<PlacedSignature>& members,
                                                           const MagneticSubmapOptions& options);
 
-/// Incremental grouping. Feed placed signatures in time order; a signature that does not fit
-/// the open group (other session, time gap, relative variation from the group's first member
+/// Incremental grouping of one coil's signatures (PoseGraphManager keeps one builder per coil).
+/// Feed placed signatures in time order; a signature that does not fit the open group (other
+/// coil, other session, time gap, relative variation from the group's first member
 /// beyond the threshold, or the group is full) closes it and starts the next group.
 class MagneticSubmapBuilder {
  public:

@@ -86,8 +86,9 @@ class MapFileWriter;
 
 class MultiScaleMap {
  public:
-  /// File format version written by save().
-  static constexpr uint32_t kFileVersion = 1;
+  /// File format version written by save(). Version 1 (before several coils: its magnetic
+  /// submaps are the first coil's) is read too.
+  static constexpr uint32_t kFileVersion = 2;
 
   /// `vocabulary` may be null only for a map that never gets visual submaps. `declination_rad`
   /// is the site's magnetic declination (east positive). Throws std::invalid_argument for

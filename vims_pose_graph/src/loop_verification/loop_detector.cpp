@@ -9,6 +9,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 
 #include "vims_common/magnetic_signature.h"
 #include "vims_pose_graph/known_vertical_pose.h"
@@ -567,6 +568,37 @@ HierarchicalLoopDetector::HierarchicalLoopDetector(const LoopDetectorOptions& op
   magnetic_options_.validate();
 }
 
+std::vector<MagneticStageMatch> magneticStageMatches(const std::map<int, Eigen::Vector3d>& query_signatures,
+                                                     const std::vector<MagneticSubmap>& submaps,
+                                                     const LoopDetectorOptions& options,
+                                                     const std::function<bool(const MagneticSubmap&)>& considered,
+                                                     std::optional<MagneticStageMatch>* nearest) {
+  std::map<int, std::vector<MagneticStageMatch>> passed_by_coil;
+  if (nearest) nearest->reset();
+  for (const MagneticSubmap& s : submaps) {
+    const auto query = query_signatures.find(s.coil);
+    if (query == query_signatures.end() || !considered(s)) continue;
+    const MagneticStageMatch m{signatureDistance(query->second, s.signature_enu), s.id};
+    if (nearest &&
+        (!*nearest || std::tie(m.distance_tesla, m.submap) < std::tie((*nearest)->distance_tesla, (*nearest)->submap)))
+      *nearest = m;
+    if (m.distance_tesla <= options.mag_distance_relative * s.signature_enu.norm() + options.mag_distance_floor_tesla)
+      passed_by_coil[s.coil].push_back(m);
+  }
+  auto nearer = [](const MagneticStageMatch& a, const MagneticStageMatch& b) {
+    return std::tie(a.distance_tesla, a.submap) < std::tie(b.distance_tesla, b.submap);
+  };
+  std::vector<MagneticStageMatch> passed;
+  for (auto& [coil, matches] : passed_by_coil) {
+    std::sort(matches.begin(), matches.end(), nearer);
+    if (matches.size() > static_cast<size_t>(options.mag_max_candidates))
+      matches.resize(static_cast<size_t>(options.mag_max_candidates));
+    passed.insert(passed.end(), matches.begin(), matches.end());
+  }
+  std::sort(passed.begin(), passed.end(), nearer);
+  return passed;
+}
+
 bool isRecentKeyframe(const LoopDetectorOptions& options, const MultiScaleMap& map, PoseGraphNodeId query,
                       double t_query, PoseGraphNodeId candidate) {
   const MapNode& c = map.node(candidate);
@@ -628,21 +660,13 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
   std::vector<PoseGraphNodeId> pool;
   std::map<PoseGraphNodeId, double> mag_distance_of;
   std::optional<LoopAttempt> magnetic_rejection;
-  if (mode_.magnetic_stage && query.signature_enu) {
+  if (mode_.magnetic_stage && !query.signatures_enu.empty()) {
     res.magnetic_stage_used = true;
-    const Eigen::Vector3d& s_q = *query.signature_enu;
-    std::vector<std::pair<double, uint32_t>> scored;  // (distance, submap)
-    std::vector<std::pair<double, uint32_t>> passed;
-    for (const MagneticSubmap& s : map.magneticSubmaps()) {
-      if (s.tied_node == query.node || isRecent(map, query.node, s.tied_node)) continue;
-      const double d = signatureDistance(s_q, s.signature_enu);
-      scored.emplace_back(d, s.id);
-      if (d <= options_.mag_distance_relative * s.signature_enu.norm() + options_.mag_distance_floor_tesla)
-        passed.emplace_back(d, s.id);
-    }
-    std::sort(passed.begin(), passed.end());
-    if (passed.size() > static_cast<size_t>(options_.mag_max_candidates))
-      passed.resize(static_cast<size_t>(options_.mag_max_candidates));
+    std::optional<MagneticStageMatch> nearest;
+    const std::vector<MagneticStageMatch> passed = magneticStageMatches(
+        query.signatures_enu, map.magneticSubmaps(), options_,
+        [&](const MagneticSubmap& s) { return s.tied_node != query.node && !isRecent(map, query.node, s.tied_node); },
+        &nearest);
     std::set<PoseGraphNodeId> members;
     for (const auto& [d, id] : passed) {
       res.magnetic_candidates.emplace_back(id, d);
@@ -658,10 +682,9 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     for (PoseGraphNodeId n = 0; n < map.numNodes(); ++n)
       if (!map.node(n).magnetic_coverage && eligible(n)) members.insert(n);
     pool.assign(members.begin(), members.end());
-    if (passed.empty() && !scored.empty()) {
-      const auto nearest = *std::min_element(scored.begin(), scored.end());
-      LoopAttempt a = attemptFor(map.magneticSubmaps()[nearest.second].tied_node);
-      a.mag_distance = nearest.first;
+    if (passed.empty() && nearest) {
+      LoopAttempt a = attemptFor(map.magneticSubmaps()[nearest->submap].tied_node);
+      a.mag_distance = nearest->distance_tesla;
       a.stage = LoopStage::kMagnetic;
       magnetic_rejection = a;
     }

@@ -45,7 +45,6 @@ PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& option
       detector_(options.loop, options.magnetic, options.modeSettings(), sequence.camera, logger_,
                 options.featureOptions()),
       map_(vocabulary_, options.graph, sequence.magnetometer.declination_deg * kDeg, logger_),
-      magnetic_builder_(options.magnetic),
       geomagnetic_gate_(options.geomagnetic_gate),
       vehicle_field_(options.vehicle_field),
       scheduler_(options, logger_, map_, run_nodes_) {
@@ -217,8 +216,15 @@ void PoseGraphManagerCore::addSignature(const SignatureWindow& w) {
                                                              << latest_signature_t_ << ")"));
     return;
   }
+  if (w.coil < 0 || w.coil > kMaxCoilIndex) {
+    logger_->warnThrottled(kComponent, "signature_coil", w.t, 10.0,
+                           VIMS_STR("signature window at t=" << w.t << " dropped: coil index " << w.coil
+                                                             << " outside 0.." << kMaxCoilIndex));
+    return;
+  }
   StoredWindow s;
   s.t = w.t;
+  s.coil = w.coil;
   s.valid = w.valid && w.amplitude_enu.allFinite();
   s.amplitude_enu = s.valid ? w.amplitude_enu : Eigen::Vector3d::Zero();
   windows_.push_back(s);
@@ -251,7 +257,8 @@ void PoseGraphManagerCore::finish() {
                                                     << geomagnetic_gate_.numJudged() << " yaw measurements"));
     if (vehicle_field_.numSamples() > 0) logVehicleField();
   }
-  if (mode_.magnetic_stage) addMagneticDraft(magnetic_builder_.breakGroup());
+  if (mode_.magnetic_stage)
+    for (auto& [coil, builder] : magnetic_builders_) addMagneticDraft(builder.breakGroup());
   if (map_.numNodes() > 0) requestOptimisation(OptimisationTrigger::kFinish);
 }
 
@@ -386,23 +393,24 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
     if (nearest != nullptr) gateGeomagnetic(p.node, nearest->field_body);
   }
 
-  std::optional<Eigen::Vector3d> signature;
+  std::map<int, Eigen::Vector3d> signatures;  // by coil
   bool magnetometer_heard = false;
   if (mode_.magnetic_stage) {
-    double best_dt = 1e300;
+    std::map<int, double> best_dt;
     for (const StoredWindow& w : windows_) {
       const double dt = std::abs(w.t - p.t);
       if (dt > options_.loop.query_signature_max_dt_s) continue;
       magnetometer_heard = true;
-      if (w.valid && w.amplitude_enu.norm() >= options_.magnetic.min_amplitude_tesla && dt < best_dt) {
-        best_dt = dt;
-        signature = w.amplitude_enu;
-      }
+      if (!w.valid || w.amplitude_enu.norm() < options_.magnetic.min_amplitude_tesla) continue;
+      const auto best = best_dt.find(w.coil);
+      if (best != best_dt.end() && dt >= best->second) continue;
+      best_dt[w.coil] = dt;
+      signatures[w.coil] = w.amplitude_enu;
     }
     map_.setMagneticCoverage(p.node, magnetometer_heard);
   }
   if (!p.has_visual) return;
-  if (mode_.magnetic_stage && !signature) {
+  if (mode_.magnetic_stage && signatures.empty()) {
     if (!magnetometer_heard)
       logger_->warnThrottled(
           kComponent, "magnetometer_silent", p.t, 10.0,
@@ -429,7 +437,7 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
       recent_points_.pop_front();
   }
   query.seabed_points = std::move(p.seabed_points);
-  query.signature_enu = signature;
+  query.signatures_enu = std::move(signatures);
   ++stats_.loop_queries;
   DetectionResult result = detector_.detect(query, map_);
   attempts_.insert(attempts_.end(), result.attempts.begin(), result.attempts.end());
@@ -501,8 +509,9 @@ void PoseGraphManagerCore::placeSignatures(bool flush) {
     // Wait for the keyframe after the window, so it is interpolated rather than extrapolated.
     if (w.t > nodeTime(run_nodes_.back()) && !flush) return;
     unplaced_.pop_front();
+    MagneticSubmapBuilder& builder = magnetic_builders_.try_emplace(w.coil, options_.magnetic).first->second;
     if (!w.valid) {
-      addMagneticDraft(magnetic_builder_.breakGroup());
+      addMagneticDraft(builder.breakGroup());
       continue;
     }
     const auto after = std::upper_bound(run_nodes_.begin(), run_nodes_.end(), w.t,
@@ -512,6 +521,7 @@ void PoseGraphManagerCore::placeSignatures(bool flush) {
     if (after != run_nodes_.end()) b = *after;
     PlacedSignature ps;
     ps.t = w.t;
+    ps.coil = w.coil;
     ps.signature_enu = w.amplitude_enu;
     bool placed = false;
     if (a && b && map_.node(*a).session == map_.node(*b).session) {
@@ -534,10 +544,10 @@ void PoseGraphManagerCore::placeSignatures(bool flush) {
       }
     }
     if (!placed) {
-      addMagneticDraft(magnetic_builder_.breakGroup());
+      addMagneticDraft(builder.breakGroup());
       continue;
     }
-    addMagneticDraft(magnetic_builder_.add(ps));
+    addMagneticDraft(builder.add(ps));
   }
 }
 

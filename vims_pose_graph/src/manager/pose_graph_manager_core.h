@@ -93,6 +93,7 @@ class PoseGraphManagerCore {
   };
   struct StoredWindow {
     double t;
+    int coil;
     bool valid;
     Eigen::Vector3d amplitude_enu;
   };
@@ -151,7 +152,7 @@ class PoseGraphManagerCore {
   HierarchicalLoopDetector detector_;
 
   MultiScaleMap map_;
-  MagneticSubmapBuilder magnetic_builder_;
+  std::map<int, MagneticSubmapBuilder> magnetic_builders_;  ///< by coil (SignatureWindow::coil)
   GeomagneticGate geomagnetic_gate_;
   VehicleFieldEstimator vehicle_field_;                   ///< taken out of the geomagnetic samples before the gate
   std::vector<MeasuredGeomagnetic> geomagnetic_history_;  ///< every sample of this run given to the gate

@@ -46,6 +46,7 @@ std::optional<MagneticSubmapDraft> summariseMagneticGroup(const std::vector<Plac
   MagneticSubmapDraft d;
   d.tied_node = members[median].nearest_node;
   d.t = members[median].t;
+  d.coil = members[median].coil;
   d.session = members[median].session;
   d.signature_enu = signature;
   d.p_odom = centre;
@@ -69,8 +70,8 @@ std::optional<MagneticSubmapDraft> MagneticSubmapBuilder::add(const PlacedSignat
     return breakGroup();
   if (!open_.empty()) {
     const PlacedSignature& reference = open_.front();
-    const bool fits = s.session == reference.session && s.t - open_.back().t <= options_.max_time_gap_s &&
-                      s.t >= open_.back().t &&
+    const bool fits = s.coil == reference.coil && s.session == reference.session &&
+                      s.t - open_.back().t <= options_.max_time_gap_s && s.t >= open_.back().t &&
                       signatureDistance(s.signature_enu, reference.signature_enu) <=
                           options_.max_relative_variation * reference.signature_enu.norm() &&
                       open_.size() < static_cast<size_t>(options_.max_members);

@@ -248,6 +248,7 @@ uint32_t MultiScaleMap::addMagneticSubmap(const MagneticSubmapDraft& draft) {
   m.id = static_cast<uint32_t>(magnetic_submaps_.size());
   m.tied_node = draft.tied_node;
   m.t = draft.t;
+  m.coil = draft.coil;
   m.signature_enu = draft.signature_enu;
   m.radius_m = draft.radius_m;
   m.num_members = draft.num_members;

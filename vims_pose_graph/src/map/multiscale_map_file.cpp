@@ -274,6 +274,7 @@ void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary
   for (const MagneticSubmap& m : magnetic_submaps_) {
     w.u32(m.tied_node);
     w.f64(m.t);
+    w.u32(static_cast<uint32_t>(m.coil));
     w.vec(m.signature_enu);
     w.f64(m.radius_m);
     w.u32(m.num_members);
@@ -325,7 +326,7 @@ namespace {
 
 /// Checks the file's magic, version, sizes and checksum; returns the payload's end (the
 /// checksum's offset + 8). Throws MapFileError naming `source`.
-uint64_t checkedFileSize(const std::vector<uint8_t>& bytes, const std::string& source) {
+uint64_t checkedFileSize(const std::vector<uint8_t>& bytes, const std::string& source, uint32_t* version_out) {
   auto fail = [&](const std::string& what) -> MapFileError {
     return MapFileError("map file '" + source + "': " + what);
   };
@@ -333,9 +334,10 @@ uint64_t checkedFileSize(const std::vector<uint8_t>& bytes, const std::string& s
   if (std::memcmp(bytes.data(), kMagic, 8) != 0) throw fail("not a VIMS map (bad magic)");
   uint32_t version = 0;
   for (int i = 0; i < 4; ++i) version |= static_cast<uint32_t>(bytes[8 + static_cast<size_t>(i)]) << (8 * i);
-  if (version != MultiScaleMap::kFileVersion)
-    throw fail("unsupported version " + std::to_string(version) + " (this build reads " +
+  if (version < 1 || version > MultiScaleMap::kFileVersion)
+    throw fail("unsupported version " + std::to_string(version) + " (this build reads 1 to " +
                std::to_string(MultiScaleMap::kFileVersion) + ")");
+  *version_out = version;
   uint64_t payload = 0;
   for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(bytes[12 + static_cast<size_t>(i)]) << (8 * i);
   const uint64_t expected = kHeaderBytes + payload + 8;
@@ -423,11 +425,18 @@ YawMeasurement readYawMeasurement(ByteReader& r, uint32_t num_nodes) {
   return y;
 }
 
-MagneticSubmapDraft readMagneticSubmap(ByteReader& r, uint32_t num_nodes) {
+/// Version 1 has no coil index (one coil: 0).
+MagneticSubmapDraft readMagneticSubmap(ByteReader& r, uint32_t num_nodes, uint32_t version) {
   MagneticSubmapDraft d;
   d.tied_node = r.u32();
   if (d.tied_node >= num_nodes) r.fail("corrupt: magnetic submap keyframe out of range");
   d.t = r.finite("magnetic submap");
+  if (version >= 2) {
+    const uint32_t coil = r.u32();
+    if (coil > static_cast<uint32_t>(kMaxCoilIndex))
+      r.fail("corrupt: magnetic submap coil index " + std::to_string(coil));
+    d.coil = static_cast<int>(coil);
+  }
   d.signature_enu = r.vec("magnetic submap signature");
   d.radius_m = r.finite("magnetic submap radius");
   if (!(d.radius_m >= 0.0)) r.fail("corrupt: negative magnetic submap radius");
@@ -443,7 +452,8 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   auto fail = [&](const std::string& what) -> MapFileError {
     return MapFileError("map file '" + source + "': " + what);
   };
-  const uint64_t expected = checkedFileSize(bytes, source);
+  uint32_t version = 0;
+  const uint64_t expected = checkedFileSize(bytes, source, &version);
   ByteReader r(bytes, kHeaderBytes, static_cast<size_t>(expected - 8), source);
   const std::string descriptor_type = r.str(64);
   const std::string vocabulary_path = r.str(4096);
@@ -499,9 +509,9 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
     m.yaw_measurements_.push_back(y);
     ++m.session_yaw_count_[m.nodes_[y.node].session];
   }
-  const uint32_t num_magnetic = r.count(4 + 8 + 24 + 8 + 4, "magnetic submaps");
+  const uint32_t num_magnetic = r.count(4 + 8 + (version >= 2 ? 4 : 0) + 24 + 8 + 4, "magnetic submaps");
   for (uint32_t i = 0; i < num_magnetic; ++i) {
-    m.addMagneticSubmap(readMagneticSubmap(r, num_nodes));
+    m.addMagneticSubmap(readMagneticSubmap(r, num_nodes, version));
   }
   if (!r.atEnd()) r.fail("corrupt: trailing bytes in the payload");
   m.session_parent_ = parents;

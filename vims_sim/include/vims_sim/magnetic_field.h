@@ -1,11 +1,12 @@
 #pragma once
 /// @file magnetic_field.h
-/// @brief Magnetic field models: the seabed coil (an alternating magnetic dipole), the site's
+/// @brief Magnetic field models: the seabed coils (alternating magnetic dipoles), the site's
 /// geomagnetic field, a local magnetic anomaly (buried ferrous material), and the magnetometer
 /// that measures their sum.
 
 #include <Eigen/Core>
 #include <optional>
+#include <vector>
 
 namespace vims {
 namespace sim {
@@ -80,12 +81,17 @@ struct MagneticAnomaly {
 /// Everything magnetic at the site; the magnetometer measures the sum.
 struct MagneticWorld {
   Eigen::Vector3d geomagnetic_enu = Eigen::Vector3d::Zero();  ///< [T]
-  CoilDipole coil;
+  CoilDipole coil;                                            ///< the first (or only) coil
   std::optional<MagneticAnomaly> anomaly;
+  /// The further coils of a site with several (vims_sim --coil-frequencies), in the sequence's
+  /// order: coil i of the sequence's coil_frequency_hz list is other_coils[i - 1].
+  std::vector<CoilDipole> other_coils;
 
-  /// Field [T] in world ENU at `p_w` and time t (seconds from the sequence start).
+  /// Field [T] in world ENU at `p_w` and time t (seconds from the sequence start): the
+  /// geomagnetic field, every coil's alternating field and the anomaly's.
   Eigen::Vector3d fieldEnu(const Eigen::Vector3d& p_w, double t) const {
     Eigen::Vector3d field = geomagnetic_enu + coil.field(p_w, t);
+    for (const CoilDipole& other : other_coils) field += other.field(p_w, t);
     if (anomaly) field += anomaly->field(p_w);
     return field;
   }

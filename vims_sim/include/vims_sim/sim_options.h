@@ -62,9 +62,15 @@ struct SimOptions {
   /// The camera's lens: "radtan" (a mildly distorted pinhole, 60 deg across) or "equidistant"
   /// (a fisheye behind a dome port, Kannala-Brandt, about 110 deg across).
   std::string distortion_model = "radtan";
-  double coil_frequency_hz = 11.0;      ///< the seabed coil's frequency
+  double coil_frequency_hz = 11.0;      ///< the (first) seabed coil's frequency
   bool coil_frequency_unknown = false;  ///< the sequence YAML leaves the coil frequency open (null)
-  /// [Hz] the coil's frequency drifts linearly by this over the sequence (the YAML states the start's)
+  /// Further coils (--coil-frequencies F1,F2,...: coil_frequency_hz = F1, this = {F2, ...}); each
+  /// has the first coil's hardware and its own free-running phase. Empty: one coil.
+  std::vector<double> other_coil_frequencies_hz;
+  /// [m] --coil-spacing: the further coils lie on the base lap this far (horizontally) from the
+  /// first, and at least this far from each other when the lap allows it.
+  double coil_spacing_m = 30.0;
+  /// [Hz] every coil's frequency drifts linearly by this over the sequence (the YAML states the start's)
   double coil_frequency_drift_hz = 0.0;
   /// A geomagnetic anomaly under the mid-mission position: its peak field at the vehicle [uT]
   /// (0: none) and its width [m] (the buried dipole's depth below the vehicle is half of it).

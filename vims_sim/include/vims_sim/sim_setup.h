@@ -30,6 +30,16 @@ struct SiteModel {
 /// inclination with a seeded declination of 2-6 deg east or west.
 SiteModel makeSite(Scenario scenario, uint64_t world_seed);
 
+/// Horizontal positions of `count` further coils (vims_sim --coil-frequencies): points on the
+/// scenario's base lap (scenarioLapWaypoints, closed) whose distance from `first` is as close as
+/// possible to `spacing_m`, among the points at least `spacing_m` from every coil placed before
+/// (when the lap has none, the point farthest from them: the nearest of them as far as possible;
+/// with a spacing beyond the lap's reach, the lap's farthest point from `first`); inside the area like the first
+/// coil. Equally good points (e.g. the lap's several crossings of the circle round the first
+/// coil) are chosen between by the world seed's own stream; coil n does not depend on `count`.
+std::vector<Eigen::Vector2d> placeOtherCoils(Scenario scenario, const Eigen::Vector2d& first, int count,
+                                             double spacing_m, uint64_t world_seed);
+
 struct SimSetup {
   SimOptions options;
   SequenceConfig config;  ///< -> <seq>.yaml (the estimator's calibration)

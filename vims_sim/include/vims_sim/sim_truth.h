@@ -73,8 +73,12 @@ struct SimTruth {
   double travel = 0.0;             ///< [m] designed horizontal path length travelled
   double camera_time_delay = 0.0;  ///< [s] image header.stamp = true exposure time + this
 
-  /// The seabed coil. Its current is I(t) = current * sin(2 pi f (t - start_time) + phase).
+  /// The seabed coil (the first one of several). Its current is
+  /// I(t) = current * sin(2 pi f (t - start_time) + phase).
   CoilDipole coil;
+  /// The further coils (vims_sim --coil-frequencies), in the order of the sequence YAML's
+  /// coil_frequency_hz list: its entry i (i >= 1) is other_coils[i - 1]. Empty: one coil.
+  std::vector<CoilDipole> other_coils;
   GeomagneticField geomagnetic;
   /// Set when the site has a local anomaly of the geomagnetic field (vims_sim --magnetic-anomaly-ut).
   std::optional<MagneticAnomaly> magnetic_anomaly;
@@ -94,8 +98,19 @@ struct SimTruth {
   /// Set when the sequence YAML's T_b_c is not the true one (vims_sim --camera-extrinsic-error-*).
   std::optional<CameraExtrinsicError> camera_extrinsic_error;
 
+  /// Number of coils (1 + other_coils.size()).
+  int coilCount() const { return 1 + static_cast<int>(other_coils.size()); }
+  /// The coil of index i in the sequence's list (0: `coil`, i: other_coils[i - 1]); nullptr when
+  /// there is no such coil.
+  const CoilDipole* coilAt(int i) const {
+    if (i == 0) return &coil;
+    return i > 0 && i < coilCount() ? &other_coils[static_cast<size_t>(i - 1)] : nullptr;
+  }
+
   /// The field the magnetometer measures (without its noise).
-  MagneticWorld magneticWorld() const { return MagneticWorld{geomagnetic.fieldEnu(), coil, magnetic_anomaly}; }
+  MagneticWorld magneticWorld() const {
+    return MagneticWorld{geomagnetic.fieldEnu(), coil, magnetic_anomaly, other_coils};
+  }
 
   /// The camera extrinsic the images were rendered with: the true one, or the YAML's `T_b_c`
   /// when the sequence has no calibration error.
@@ -109,7 +124,7 @@ struct SimTruth {
   void save(const std::string& path) const;
   /// Reads a file written by save(). Throws vims::ConfigError naming the bad key (unknown keys,
   /// wrong types, a coil moment, field vector or terrain wave list inconsistent with the other
-  /// values).
+  /// values). `other_coils` is optional (files of one coil have none).
   static SimTruth load(const std::string& path);
 };
 

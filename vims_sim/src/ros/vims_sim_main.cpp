@@ -54,6 +54,16 @@ int main(int argc, char** argv) {
       std::printf("vims_sim: pressure sensor at %.0f Hz on %s\n", setup.config.pressure->rate_hz,
                   setup.config.topics.pressure.c_str());
     }
+    if (!setup.truth.other_coils.empty()) {
+      const vims::sim::CoilDipole& first = setup.truth.coil;
+      std::printf("vims_sim: %d coils: %.3f Hz at (%.1f, %.1f)", setup.truth.coilCount(), first.frequency,
+                  first.position_w.x(), first.position_w.y());
+      for (const vims::sim::CoilDipole& other : setup.truth.other_coils) {
+        std::printf(", %.3f Hz at (%.1f, %.1f) %.1f m from the first", other.frequency, other.position_w.x(),
+                    other.position_w.y(), (other.position_w - first.position_w).head<2>().norm());
+      }
+      std::printf(" (spacing %.1f m)\n", options->coil_spacing_m);
+    }
     std::fflush(stdout);
 
     BagSink sink(paths.bag, options->lz4, setup.config, setup.sonar, setup.imu, options->image_format);
