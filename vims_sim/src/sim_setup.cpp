@@ -54,6 +54,12 @@ Eigen::Vector3d jitter(Rng& rng, const Eigen::Vector3d& nominal, const Eigen::Ve
                                    rng.uniform(-1, 1) * half_range.z());
 }
 
+/// A coil's position moved inside the area, at least 1 m from its edges.
+Eigen::Vector2d keptOneMetreInside(const ScenarioArea& area, const Eigen::Vector2d& p) {
+  return {std::max(-area.half_size_x + 1.0, std::min(area.half_size_x - 1.0, p.x())),
+          std::max(-area.half_size_y + 1.0, std::min(area.half_size_y - 1.0, p.y()))};
+}
+
 }  // namespace
 
 SiteModel makeSite(Scenario scenario, uint64_t world_seed) {
@@ -80,8 +86,7 @@ SiteModel makeSite(Scenario scenario, uint64_t world_seed) {
   const Eigen::Vector2d normal(-direction.y(), direction.x());
   Eigen::Vector2d position = a + rng.uniform(0.15, 0.85) * (b - a) + rng.uniform(-2.5, 2.5) * normal;
   const ScenarioArea area = scenarioArea(scenario);
-  position.x() = std::max(-area.half_size_x + 1.0, std::min(area.half_size_x - 1.0, position.x()));
-  position.y() = std::max(-area.half_size_y + 1.0, std::min(area.half_size_y - 1.0, position.y()));
+  position = keptOneMetreInside(area, position);
   site.coil.position_w = Eigen::Vector3d(position.x(), position.y(), 0.0);
   site.coil.turns = 330;
   site.coil.current = 2.9;
@@ -118,10 +123,7 @@ std::vector<Eigen::Vector2d> placeOtherCoils(Scenario scenario, const Eigen::Vec
     }
     candidates.push_back(a + std::max(0.0, std::min(1.0, -d.dot(r) / qa)) * d);
   }
-  for (Eigen::Vector2d& c : candidates) {  // inside the area, as the first coil
-    c.x() = std::max(-area.half_size_x + 1.0, std::min(area.half_size_x - 1.0, c.x()));
-    c.y() = std::max(-area.half_size_y + 1.0, std::min(area.half_size_y - 1.0, c.y()));
-  }
+  for (Eigen::Vector2d& c : candidates) c = keptOneMetreInside(area, c);  // as the first coil
 
   Rng rng(deriveSeed(world_seed, kStreamOtherCoilSites));
   constexpr double kTie = 1e-6;  // [m] candidates this close to the best are equally good
