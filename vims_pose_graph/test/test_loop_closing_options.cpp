@@ -14,6 +14,7 @@
 
 #include "vims_common/fnv1a.h"
 #include "vims_pose_graph/angles.h"
+#include "vims_pose_graph/input_recording.h"
 #include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/loop_csv.h"
 #include "vims_pose_graph/multiscale_map.h"
@@ -401,6 +402,49 @@ TEST(MapFile, CorruptFilesGiveClearErrors) {
   const uint32_t s = m.addSession(0, false);
   m.addNode(0.0, s, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), 0.0, VisualSubmap(), false);
   EXPECT_EQ(m.numNodes(), 1u);
+}
+
+TEST(InputRecording, SignatureWindowsKeepTheirCoilAndVersionOneStillReads) {
+  const std::string path = tempPath("inputs.bin");
+  SignatureWindow w;
+  w.t = 12.0;
+  w.t_start = 11.0;
+  w.t_end = 13.0;
+  w.coil = 2;
+  w.frequency_hz = 17.0;
+  w.amplitude_enu = Eigen::Vector3d(1e-7, -2e-7, 3e-7);
+  w.snr = 400.0;
+  w.valid = true;
+  {
+    InputRecorder recorder(path);
+    recorder.write(w);
+  }
+  {
+    InputReader reader(path);
+    RecordedInput input;
+    ASSERT_TRUE(reader.next(&input));
+    const auto* read = std::get_if<SignatureWindow>(&input);
+    ASSERT_NE(read, nullptr);
+    EXPECT_EQ(read->coil, 2);
+    EXPECT_EQ(read->amplitude_enu, w.amplitude_enu);
+    EXPECT_TRUE(read->valid);
+    EXPECT_FALSE(reader.next(&input));
+  }
+  // Version 1: the same bytes without the trailing coil index.
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  bytes.resize(bytes.size() - 4);
+  bytes[8] = 1;
+  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  InputReader old(path);
+  RecordedInput input;
+  ASSERT_TRUE(old.next(&input));
+  ASSERT_NE(std::get_if<SignatureWindow>(&input), nullptr);
+  EXPECT_EQ(std::get<SignatureWindow>(input).coil, 0);
+  EXPECT_EQ(std::get<SignatureWindow>(input).amplitude_enu, w.amplitude_enu);
+  EXPECT_FALSE(old.next(&input));
+  std::remove(path.c_str());
 }
 
 }  // namespace

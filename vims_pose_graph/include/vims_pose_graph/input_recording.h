@@ -5,12 +5,13 @@
 /// can be re-run and diagnosed on the real VIO keyframes of a sequence without re-running the
 /// front end and the VIO (vims_pose_graph_replay; docs/pose_graph.md, "Replaying recorded inputs").
 ///
-/// File: magic "VIMSPGIN", u32 version (1), then events until the end of the file, each a u8 kind
+/// File: magic "VIMSPGIN", u32 version (2; version 1, before several coils, is read too: its
+/// signatures are coil 0's), then events until the end of the file, each a u8 kind
 /// (1 keyframe, 2 signature, 3 geomagnetic) and its payload, little-endian:
 ///  - keyframe: t f64, session u32, T_odom_b (t xyz, row-major R) 12 f64, landmarks u32 count x
 ///    (id u64, p_odom 3 f64, pixel 2 f64, normalized 2 f64), image PNG (u32 size + bytes, 0 = none);
 ///  - signature: t, t_start, t_end, frequency_hz f64, amplitude_enu 3 f64, geomagnetic_body 3 f64,
-///    snr f64, valid u8, flags u32;
+///    snr f64, valid u8, flags u32, coil u32 (version 2);
 ///  - geomagnetic: t f64, field_body 3 f64.
 
 #include <Eigen/Core>
@@ -58,6 +59,7 @@ class InputReader {
  private:
   std::string path_;
   std::ifstream in_;
+  uint32_t version_ = 0;
 };
 
 }  // namespace vims

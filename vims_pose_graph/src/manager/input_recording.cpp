@@ -6,11 +6,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "vims_pose_graph/magnetic_submap.h"
+
 namespace vims {
 
 namespace {
 constexpr char kMagic[8] = {'V', 'I', 'M', 'S', 'P', 'G', 'I', 'N'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;
 constexpr uint8_t kKeyframe = 1, kSignature = 2, kGeomagnetic = 3;
 /// Upper bounds that reject a corrupt count before allocating.
 constexpr uint32_t kMaxLandmarks = 1000000;
@@ -79,6 +81,7 @@ void InputRecorder::write(const SignatureWindow& w) {
   put(out_, w.snr);
   put(out_, static_cast<uint8_t>(w.valid ? 1 : 0));
   put(out_, static_cast<uint32_t>(w.flags));
+  put(out_, static_cast<uint32_t>(w.coil));
   check();
 }
 
@@ -98,12 +101,11 @@ InputReader::InputReader(const std::string& path) : path_(path), in_(path, std::
   if (!in_) throw std::runtime_error("input recording " + path + ": cannot open");
   char magic[8];
   in_.read(magic, sizeof(magic));
-  uint32_t version = 0;
-  in_.read(reinterpret_cast<char*>(&version), sizeof(version));
+  in_.read(reinterpret_cast<char*>(&version_), sizeof(version_));
   if (!in_ || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
     throw std::runtime_error("input recording " + path + ": not a pose-graph input recording");
-  if (version != kVersion)
-    throw std::runtime_error("input recording " + path + ": version " + std::to_string(version) + ", expected " +
+  if (version_ < 1 || version_ > kVersion)
+    throw std::runtime_error("input recording " + path + ": version " + std::to_string(version_) + ", expected 1 to " +
                              std::to_string(kVersion));
 }
 
@@ -165,6 +167,13 @@ bool InputReader::next(RecordedInput* input) {
     uint32_t flags = 0;
     get(in_, &flags, path_);
     w.flags = flags;
+    if (version_ >= 2) {
+      uint32_t coil = 0;
+      get(in_, &coil, path_);
+      if (coil > static_cast<uint32_t>(kMaxCoilIndex))
+        throw std::runtime_error("input recording " + path_ + ": coil index " + std::to_string(coil) + " out of range");
+      w.coil = static_cast<int>(coil);
+    }
     *input = w;
     return true;
   }
