@@ -16,6 +16,7 @@
 #include "vims_eval/metrics.h"
 #include "vims_eval/report.h"
 #include "vims_eval/revisit.h"
+#include "vims_eval/truth_coils.h"
 
 namespace fs = std::filesystem;
 
@@ -26,9 +27,9 @@ namespace {
 // Options shared by the subcommands; `true` = takes a value.
 const std::map<std::string, bool> kTrajectoryOptions = {
     {"align", true}, {"max-dt", true}, {"interpolate", false}, {"max-gt-gap", true}, {"rpe-delta", true}};
-const std::map<std::string, bool> kLoopOptions = {{"trans-tol", true},      {"rot-tol-deg", true},
-                                                  {"revisit-radius", true}, {"revisit-gap", true},
-                                                  {"revisit-margin", true}, {"max-gt-gap", true}};
+const std::map<std::string, bool> kLoopOptions = {
+    {"trans-tol", true},      {"rot-tol-deg", true},         {"revisit-radius", true}, {"revisit-gap", true},
+    {"revisit-margin", true}, {"revisit-coil-radius", true}, {"max-gt-gap", true}};
 
 }  // namespace
 
@@ -57,6 +58,7 @@ EvalOptions evalOptionsFromArgs(const CliArgs& args) {
   args.number("revisit-radius", &o.revisit.radius_m);
   args.number("revisit-gap", &o.revisit.min_gap_s);
   args.number("revisit-margin", &o.revisit.margin_s);
+  args.number("revisit-coil-radius", &o.revisit.coil_radius_m);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {
@@ -188,6 +190,15 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
       root["loops"] = node;
       for (const auto& p : writeLoopPlots(gt, ev, plot_dir)) plots.push_back(p);
       summaries.push_back(loopSummaryLine(ev));
+      // Several coils: the revisits near each, so a coil whose loops never close shows.
+      std::string why;
+      const auto coil_positions = readTruthCoilPositions(seq.truth, &why);
+      if (!coil_positions.empty()) {
+        const auto coils = revisitsNearCoils(ev.events, coil_positions, options.revisit.coil_radius_m);
+        printCoilRevisits(out, coils, options.revisit.coil_radius_m);
+        root["loops"]["near_coils"] = coilRevisitsToYaml(coils);
+        summaries.push_back(coilRevisitsSummaryLine(coils));
+      }
     } catch (const std::exception& e) {
       err << "vims_eval run: loops: " << e.what() << "\n";
       YAML::Node node;
@@ -237,7 +248,9 @@ usage:
   loops  score loops.csv (correct: within --trans-tol m and --rot-tol-deg deg of the ground truth's
          T_match_query), find revisit events in the ground truth; last line 'VIMS_EVAL_LOOPS ...'.
   run    evaluate OUT/vio.tum, OUT/global.tum and OUT/loops.csv (those present) against the
-         sequence's <seq>_gt.tum; writes OUT/eval.yaml and OUT/plots/*.png.
+         sequence's <seq>_gt.tum; writes OUT/eval.yaml and OUT/plots/*.png. With a
+         <seq>_truth.yaml that gives the coils' positions, also the revisit events near each
+         coil (--revisit-coil-radius 15); last line 'VIMS_EVAL_COILS ...'.
   ablation  runs vims_offline (next to this executable, or --offline) once per variant into
          OUT/<mode>/ (--jobs at a time, --map-save OUT/<mode>/map.vimsmap), evaluates global.tum (SE3),
          vio.tum and loops.csv, prints the paper's table, writes OUT/ablation.md, OUT/ablation.csv,

@@ -59,6 +59,8 @@ const OptionTable<EvalOptions>& EvalOptions::optionTable() {
               "revisit_gap_s", [](O& o) -> double& { return o.revisit.min_gap_s; }, Bounds::nonNegative())
           .number(
               "revisit_margin_s", [](O& o) -> double& { return o.revisit.margin_s; }, Bounds::nonNegative())
+          .number(
+              "revisit_coil_radius_m", [](O& o) -> double& { return o.revisit.coil_radius_m; }, Bounds::positive())
           .rule([](const O& o) {
             return violationIf(o.trajectory.alignments.empty(), "align", "at least one alignment is needed");
           });

@@ -282,6 +282,38 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
   }
 }
 
+void printCoilRevisits(std::ostream& out, const std::vector<CoilRevisits>& coils, double radius_m) {
+  out << "== revisit events near the coils (first sample within " << num(radius_m, 1)
+      << " m horizontally, counted for the nearest coil):\n";
+  char buf[256];
+  for (const auto& c : coils) {
+    std::snprintf(buf, sizeof(buf), "   coil %d at (%.2f, %.2f): %zu, closed %zu (%.1f %%)\n", c.coil, c.position_w.x(),
+                  c.position_w.y(), c.summary.events, c.summary.closed, c.summary.closedPercent());
+    out << buf;
+  }
+}
+
+std::string coilRevisitsSummaryLine(const std::vector<CoilRevisits>& coils) {
+  std::ostringstream os;
+  os << "VIMS_EVAL_COILS coils=" << coils.size();
+  for (const auto& c : coils)
+    os << " coil" << c.coil << "_events=" << c.summary.events << " coil" << c.coil << "_closed=" << c.summary.closed;
+  return os.str();
+}
+
+YAML::Node coilRevisitsToYaml(const std::vector<CoilRevisits>& coils) {
+  YAML::Node list(YAML::NodeType::Sequence);
+  for (const auto& c : coils) {
+    YAML::Node node;
+    node["coil"] = c.coil;
+    for (int k = 0; k < 3; ++k) node["position_enu"].push_back(yamlNumber(c.position_w[k]));
+    node["events"] = c.summary.events;
+    node["closed"] = c.summary.closed;
+    list.push_back(node);
+  }
+  return list;
+}
+
 std::string loopSummaryLine(const LoopEvaluation& ev) {
   const LoopScore& s = ev.score;
   std::ostringstream os;

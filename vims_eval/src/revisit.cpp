@@ -113,6 +113,31 @@ RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events) {
   return s;
 }
 
+std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events,
+                                            const std::vector<Eigen::Vector3d>& coil_positions_w, double radius_m) {
+  std::vector<CoilRevisits> out(coil_positions_w.size());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i].coil = static_cast<int>(i);
+    out[i].position_w = coil_positions_w[i];
+  }
+  for (const auto& event : events) {
+    std::optional<std::size_t> nearest;
+    double nearest_m = radius_m;
+    for (std::size_t i = 0; i < coil_positions_w.size(); ++i) {
+      const double d = (event.p_w_start.head<2>() - coil_positions_w[i].head<2>()).norm();
+      if (d <= nearest_m) {
+        nearest_m = d;
+        nearest = i;
+      }
+    }
+    if (!nearest) continue;
+    RevisitSummary& s = out[*nearest].summary;
+    ++s.events;
+    if (event.closed) ++s.closed;
+  }
+  return out;
+}
+
 LoopEvaluation evaluateLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
                              const LoopScoringOptions& loop_options, const RevisitOptions& revisit_options) {
   LoopEvaluation ev;

@@ -176,3 +176,48 @@ TEST(Cli, RunWritesEvalYamlAndPlots) {
   EXPECT_EQ(yaml["plots"].size(), 5u);
   for (const auto& p : yaml["plots"]) EXPECT_TRUE(fs::exists(p.as<std::string>())) << p.as<std::string>();
 }
+
+TEST(Cli, RunCountsTheRevisitsNearEachCoilOfTheTruthFile) {
+  const fs::path root = tempDir("run_coils");
+  const fs::path seq = root / "lap";
+  const fs::path out = root / "out";
+  fs::create_directories(seq);
+  fs::create_directories(out);
+  const auto gt = groundTruth();
+  std::ofstream(seq / "lap.bag").put('\n');
+  std::ofstream(seq / "lap.yaml") << "{}\n";
+  vims::writeTumFile((seq / "lap_gt.tum").string(), gt);
+  writeLoops(out / "loops.csv", gt);
+
+  // A truth file of another generator, without coil positions: no per-coil lines.
+  std::ofstream(seq / "lap_truth.yaml") << "generator: other\nseed: 3\n";
+  const CliResult plain = run({"run", "--sequence", seq.string(), "--out", out.string()});
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_EQ(plain.out.find("VIMS_EVAL_COILS"), std::string::npos) << plain.out;
+
+  // The second lap's revisit event starts at (10, 0), on coil 0; coil 1 is 20 m away.
+  {
+    std::ofstream truth(seq / "lap_truth.yaml");
+    truth << "coil: {position_enu: [10, 0, -10], frequency_hz: 11}\n"
+          << "other_coils:\n  - {position_enu: [-10, 0, -10], frequency_hz: 17}\n";
+  }
+  const CliResult result = run({"run", "--sequence", seq.string(), "--out", out.string()});
+  ASSERT_EQ(result.code, 0) << result.err;
+  EXPECT_NE(result.out.find("VIMS_EVAL_COILS coils=2 coil0_events=1 coil0_closed=1 coil1_events=0 coil1_closed=0"),
+            std::string::npos)
+      << result.out;
+  const YAML::Node yaml = YAML::LoadFile((out / "eval.yaml").string());
+  ASSERT_EQ(yaml["loops"]["near_coils"].size(), 2u);
+  EXPECT_EQ(yaml["loops"]["near_coils"][1]["coil"].as<int>(), 1);
+  EXPECT_DOUBLE_EQ(yaml["loops"]["near_coils"][1]["position_enu"][0].as<double>(), -10.0);
+
+  // A radius of 25 m takes coil 1 in, but the event counts once, for the nearest coil.
+  const CliResult wide = run({"run", "--sequence", seq.string(), "--out", out.string(), "--revisit-coil-radius", "25"});
+  EXPECT_NE(wide.out.find("coil0_events=1 coil0_closed=1 coil1_events=0"), std::string::npos) << wide.out;
+
+  // A malformed position is an error naming the key.
+  std::ofstream(seq / "lap_truth.yaml") << "coil: {position_enu: [10, 0]}\n";
+  const CliResult bad = run({"run", "--sequence", seq.string(), "--out", out.string()});
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.err.find("coil.position_enu"), std::string::npos) << bad.err;
+}

@@ -159,3 +159,25 @@ TEST(Revisit, GridSearchMatchesBruteForce) {
     for (std::size_t i = e.first_index; i <= e.last_index; ++i) covered[i] = true;
   EXPECT_EQ(covered, revisiting);
 }
+
+TEST(Revisit, EventsCountForTheNearestCoilWithinTheRadius) {
+  std::vector<RevisitEvent> events(4);
+  events[0].p_w_start = Eigen::Vector3d(1, 0, -10);   // 1 m from coil 0, 29 m from coil 1
+  events[1].p_w_start = Eigen::Vector3d(16, 0, -10);  // 16 m from coil 0, 14 m from coil 1
+  events[2].p_w_start = Eigen::Vector3d(30, 3, 5);    // on coil 1 (height does not matter)
+  events[3].p_w_start = Eigen::Vector3d(0, 40, -10);  // beyond 15 m of both: no coil's
+  events[0].closed = true;
+  events[2].closed = true;
+  const auto coils = revisitsNearCoils(events, {Eigen::Vector3d(0, 0, -12), Eigen::Vector3d(30, 0, -12)}, 15.0);
+  ASSERT_EQ(coils.size(), 2u);
+  EXPECT_EQ(coils[0].coil, 0);
+  EXPECT_EQ(coils[0].summary.events, 1u);
+  EXPECT_EQ(coils[0].summary.closed, 1u);
+  EXPECT_EQ(coils[1].coil, 1);
+  EXPECT_EQ(coils[1].summary.events, 2u);
+  EXPECT_EQ(coils[1].summary.closed, 1u);
+  EXPECT_DOUBLE_EQ(coils[1].position_w.x(), 30.0);
+  // A smaller radius drops the event 14 m from coil 1.
+  EXPECT_EQ(revisitsNearCoils(events, {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(30, 0, 0)}, 10.0)[1].summary.events,
+            1u);
+}

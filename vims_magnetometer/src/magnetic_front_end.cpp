@@ -16,6 +16,12 @@ MagneticFrontEnd::MagneticFrontEnd(const MagnetometerOptions& options, const Mag
       gravity_(gravity),
       logger_(logger ? std::move(logger) : Logger::nullLogger()) {
   options_.validateFor(calibration_, ConfigReader::fromString("", "magnetometer options"));
+  if (!options_.iron_correction.isIdentity()) {
+    const IronCorrection& c = options_.iron_correction;
+    logger_->info(kComponent, VIMS_STR("iron correction: hard iron " << c.hard_iron_t.transpose() * 1e6
+                                                                     << " uT, soft-iron inverse diagonal "
+                                                                     << c.soft_iron_inverse.diagonal().transpose()));
+  }
   if (calibration_.coilFrequencyKnown()) {
     std::vector<double> frequencies{calibration_.coil_frequency_hz};
     frequencies.insert(frequencies.end(), calibration_.other_coil_frequencies_hz.begin(),
@@ -53,8 +59,12 @@ void MagneticFrontEnd::feedImu(const ImuSample& sample) {
   }
 }
 
-void MagneticFrontEnd::feedMag(const MagSample& sample, std::vector<SignatureWindow>* signatures,
+void MagneticFrontEnd::feedMag(const MagSample& raw, std::vector<SignatureWindow>* signatures,
                                std::vector<GeomagneticSample>* geomagnetic) {
+  // The iron correction comes first: the geomagnetic field and the coil's lines both pass through
+  // the vehicle's iron (a non-finite sample stays non-finite, and the extractor marks it).
+  MagSample sample = raw;
+  sample.field = options_.iron_correction.apply(raw.field);
   if (!extractors_.empty()) {
     extractors_.front()->feedMag(sample, signatures, geomagnetic);  // the geomagnetic source
     for (size_t i = 1; i < extractors_.size(); ++i) extractors_[i]->feedMag(sample, signatures, nullptr);

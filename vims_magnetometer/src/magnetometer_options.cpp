@@ -1,5 +1,6 @@
 #include "vims_magnetometer/magnetometer_options.h"
 
+#include <Eigen/SVD>
 #include <cmath>
 
 #include "vims_common/option_table.h"
@@ -39,6 +40,51 @@ const OptionTable<CoilSearchOptions>& CoilSearchOptions::optionTable() {
   return table;
 }
 
+namespace {
+
+std::string vectorYaml(const double* v, int n) {
+  std::string out = "[";
+  for (int i = 0; i < n; ++i) out += (i ? ", " : "") + formatOptionNumber(v[i]);
+  return out + "]";
+}
+
+const OptionTable<IronCorrection>& ironCorrectionTable() {
+  using O = IronCorrection;
+  static const auto table =
+      OptionTable<O>()
+          .custom(
+              "hard_iron_t",
+              [](const ConfigReader& r, const std::string& k, O& o) {
+                const auto v = r.getVector(k, 3);
+                for (double x : v)
+                  if (!std::isfinite(x) || std::abs(x) > 1e-3)
+                    throw r.error(k, "must be three finite numbers within 1 mT");
+                o.hard_iron_t = Eigen::Vector3d(v[0], v[1], v[2]);
+              },
+              [](const O& o) { return vectorYaml(o.hard_iron_t.data(), 3); }, "three numbers [T], each within 1e-3")
+          .custom(
+              "soft_iron_inverse",
+              [](const ConfigReader& r, const std::string& k, O& o) {
+                const auto v = r.getVector(k, 9);
+                Eigen::Matrix3d K;
+                for (int i = 0; i < 9; ++i) K(i / 3, i % 3) = v[static_cast<size_t>(i)];
+                // A vehicle's soft iron is a few percent: a matrix far from a rotation-free scale
+                // near 1 is a mistyped or transposed file, not a calibration.
+                const Eigen::Vector3d sv = K.jacobiSvd().singularValues();
+                if (!K.allFinite() || sv.minCoeff() < 0.5 || sv.maxCoeff() > 2.0 || K.determinant() <= 0.0)
+                  throw r.error(k, "must be a 3x3 row-major matrix with gains (singular values) in [0.5, 2]");
+                o.soft_iron_inverse = K;
+              },
+              [](const O& o) {
+                const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> K = o.soft_iron_inverse;
+                return vectorYaml(K.data(), 9);
+              },
+              "nine numbers (3x3 row-major), gains in [0.5, 2]");
+  return table;
+}
+
+}  // namespace
+
 const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
   using O = MagnetometerOptions;
   // snr_inner_bins >= 2: closer bins sit in the Hann main lobe and would measure the coil, not the noise.
@@ -57,6 +103,7 @@ const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
           .number("frequency_tracking_max_offset_hz", &O::frequency_tracking_max_offset_hz, Bounds::closed(0.0, 10.0))
           .section<AttitudeFilterOptions>("attitude", &O::attitude, AttitudeFilterOptions::optionTable())
           .section<CoilSearchOptions>("coil_search", &O::coil_search, CoilSearchOptions::optionTable())
+          .section<IronCorrection>("iron_correction", &O::iron_correction, ironCorrectionTable())
           .rule([](const O& o) {
             return violationIf(o.hop_s > o.window_s, "hop_s",
                                "must not exceed window_s (windows would leave samples out)");

@@ -150,7 +150,8 @@ Eigen::Vector3d MagnetometerSimulator::thrusterField(const TrajectoryState& stat
 Eigen::Vector3d MagnetometerSimulator::measure(const Eigen::Isometry3d& T_w_b, double t) {
   const double s = params_.noise_std;
   const Eigen::Vector3d noise(rng_.gaussian(s), rng_.gaussian(s), rng_.gaussian(s));
-  return trueField(T_w_b, T_b_m_, world_, t) + noise;
+  const Eigen::Vector3d field = trueField(T_w_b, T_b_m_, world_, t);
+  return (iron_ ? iron_->apply(field) : field) + noise;
 }
 
 }  // namespace sim

@@ -304,6 +304,7 @@ GenerationStats generateSequence(const SimSetup& setup, SimSink& sink, const Pro
                             deriveSeed(opt.seed, kStreamMagNoise)),
       std::nullopt};
   if (truth.thrusters) sensors.mag.setThrusters(*truth.thrusters);
+  if (truth.magnetometer_iron) sensors.mag.setIron(*truth.magnetometer_iron);
 
   auto texture = std::make_shared<SeabedTexture>(opt.worldSeed(), setup.texture);
   const SeabedRenderer renderer(cfg.camera, texture, setup.optics, setup.terrain);

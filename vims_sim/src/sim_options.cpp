@@ -223,6 +223,8 @@ void SimOptions::validate() const {
   }
   requireInRange("--magnetic-anomaly-ut", magnetic_anomaly_ut, 0.0, 50.0, "uT");
   requireInRange("--magnetic-anomaly-width-m", magnetic_anomaly_width_m, 2.0, 50.0, "m");
+  requireInRange("--mag-hard-iron-ut", mag_hard_iron_ut, 0.0, 50.0, "uT");
+  requireInRange("--mag-soft-iron-pct", mag_soft_iron_pct, 0.0, 20.0, "%");
 
   requireInRange("--pressure-rate-hz", pressure.rate_hz, 1.0, 50.0, "Hz");
   requireInRange("--pressure-atmospheric-error-pa", pressure.atmospheric_error_pa, -2.0e4, 2.0e4, "Pa");
@@ -389,6 +391,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.magnetic_anomaly_ut = parseDouble(flag, value);
     } else if (flag == "--magnetic-anomaly-width-m") {
       options.magnetic_anomaly_width_m = parseDouble(flag, value);
+    } else if (flag == "--mag-hard-iron-ut") {
+      options.mag_hard_iron_ut = parseDouble(flag, value);
+    } else if (flag == "--mag-soft-iron-pct") {
+      options.mag_soft_iron_pct = parseDouble(flag, value);
     } else if (flag == "--camera-rate-hz") {
       options.rates.camera = parseDouble(flag, value);
     } else if (flag == "--imu-rate-hz") {
@@ -477,6 +483,10 @@ Options:
                            field) under the vehicle's mid-mission position, UT (0-50) at the vehicle
                            (default 0: none); the truth file keeps it
   --magnetic-anomaly-width-m M  its width (2-50 m, default 10): the dipole lies M/2 below the vehicle
+  --mag-hard-iron-ut H     the magnetometer is not calibrated: H uT (0-50) of hard iron in a seeded
+                           direction (default 0); the YAML does not say so, the truth file does
+  --mag-soft-iron-pct P    and soft iron scaling and skewing the outside field by up to P % (0-20,
+                           default 0) along seeded axes (vims_mag_calib fits both)
   --camera-rate-hz HZ      image rate, 5-30 (default 10)
   --imu-rate-hz HZ         IMU rate, 100-1000 (default 200; the noise densities stay the same)
   --sonar-rate-hz HZ       sonar rate, 1-20 (default 10)

@@ -27,8 +27,9 @@ enum : uint64_t {
   kStreamPressureRig = 0x9b0e,
   kStreamExtrinsicError = 0xe4c0,
   kStreamThrusters = 0x7412,
-  kStreamOtherCoilSites = 0xc02a,   // world seed: which point at the spacing holds each further coil
-  kStreamOtherCoilPhases = 0xc02f,  // trajectory seed: the further coils' free-running phases
+  kStreamOtherCoilSites = 0xc02a,    // world seed: which point at the spacing holds each further coil
+  kStreamOtherCoilPhases = 0xc02f,   // trajectory seed: the further coils' free-running phases
+  kStreamMagnetometerIron = 0x1e0f,  // the vehicle's iron belongs to the rig: trajectory seed
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -363,6 +364,10 @@ SimSetup buildSimSetup(const SimOptions& options) {
     th.broadband_std_tesla = options.thrusters.broadband_nt * 1e-9;
     // The motors' placement relative to the magnetometer belongs to the vehicle: the rig's seed.
     truth.thrusters = seededThrusterInterference(th, deriveSeed(options.seed, kStreamThrusters));
+  }
+  if (options.mag_hard_iron_ut > 0.0 || options.mag_soft_iron_pct > 0.0) {
+    truth.magnetometer_iron = seededMagnetometerIron(options.mag_hard_iron_ut, options.mag_soft_iron_pct,
+                                                     deriveSeed(options.seed, kStreamMagnetometerIron));
   }
   if (options.magnetic_anomaly_ut > 0.0) {
     // Under the vehicle's mid-mission position, so the mission crosses it; buried half its width

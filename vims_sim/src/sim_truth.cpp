@@ -298,6 +298,15 @@ std::string SimTruth::toYaml() const {
        << "  line_direction_1_m: " << vec(thrusters->line_direction_m[1]) << "\n"
        << "  hard_iron_direction_m: " << vec(thrusters->hard_iron_direction_m) << "\n";
   }
+  if (magnetometer_iron) {
+    const Eigen::Matrix3d& W = magnetometer_iron->soft_iron;
+    os << "magnetometer_iron:  # the magnetometer is not calibrated: m = soft_iron h + hard_iron_t (vims_sim "
+          "--mag-hard-iron-ut, --mag-soft-iron-pct)\n"
+       << "  hard_iron_t: " << vec(magnetometer_iron->hard_iron_t) << "  # [T] mag frame\n"
+       << "  soft_iron: [";
+    for (int i = 0; i < 9; ++i) os << (i ? ", " : "") << num(W(i / 3, i % 3));
+    os << "]  # 3x3 row-major\n";
+  }
   if (magnetic_anomaly) {
     os << "magnetic_anomaly:  # a point dipole buried in the seabed; its static field adds to the geomagnetic one\n"
        << "  position_enu: " << vec(magnetic_anomaly->position_w) << "  # [m] world ENU\n"
@@ -336,7 +345,8 @@ SimTruth SimTruth::load(const std::string& path) {
                           "hold_plane_only",
                           "camera_extrinsic_error",
                           "magnetic_anomaly",
-                          "thrusters"});
+                          "thrusters",
+                          "magnetometer_iron"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -412,6 +422,15 @@ SimTruth SimTruth::load(const std::string& path) {
     th.line_direction_m[1] = readVec3(r, "line_direction_1_m");
     th.hard_iron_direction_m = readVec3(r, "hard_iron_direction_m");
     t.thrusters = th;
+  }
+  if (root.has("magnetometer_iron")) {
+    const ConfigReader r = root.child("magnetometer_iron");
+    r.rejectUnknownKeys({"hard_iron_t", "soft_iron"});
+    MagnetometerIron iron;
+    iron.hard_iron_t = readVec3(r, "hard_iron_t");
+    const std::vector<double> w = r.getVector("soft_iron", 9);
+    for (int i = 0; i < 9; ++i) iron.soft_iron(i / 3, i % 3) = w[static_cast<size_t>(i)];
+    t.magnetometer_iron = iron;
   }
   if (root.has("magnetic_anomaly")) {
     const ConfigReader a = root.child("magnetic_anomaly");

@@ -37,5 +37,18 @@ ThrusterInterference seededThrusterInterference(const ThrusterInterference& para
   return t;
 }
 
+MagnetometerIron seededMagnetometerIron(double hard_iron_ut, double soft_iron_pct, uint64_t seed) {
+  Rng rng(seed);
+  MagnetometerIron iron;
+  iron.hard_iron_t = randomUnit(rng) * (hard_iron_ut * 1e-6);
+  const Eigen::Quaterniond axes =
+      Eigen::Quaterniond(rng.gaussian(), rng.gaussian(), rng.gaussian(), rng.gaussian()).normalized();
+  const double p = soft_iron_pct / 100.0;
+  const Eigen::Vector3d gains(1.0 + p, 1.0 - p, 1.0 + rng.uniform(-1.0, 1.0) * p);
+  const Eigen::Matrix3d Q = axes.toRotationMatrix();
+  iron.soft_iron = Q * gains.asDiagonal() * Q.transpose();
+  return iron;
+}
+
 }  // namespace sim
 }  // namespace vims

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <Eigen/Eigenvalues>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -648,6 +649,53 @@ TEST(SimSetup, ThrustersAreSeededByTheRigAndTheTruthKeepsThem) {
   EXPECT_EQ(loaded.thrusters->line_frequency_hz, 30.0);
   EXPECT_LT((loaded.thrusters->hard_iron_direction_m - th.hard_iron_direction_m).norm(), 1e-12);
   EXPECT_LT((loaded.thrusters->line_direction_m[1] - th.line_direction_m[1]).norm(), 1e-12);
+}
+
+}  // namespace
+}  // namespace sim
+}  // namespace vims
+
+namespace vims {
+namespace sim {
+namespace {
+
+TEST(SimSetup, MagnetometerIronIsSeededByTheRigMeasuredAndKeptInTheTruthOnly) {
+  const auto options = parseSimCommandLine({"--scenario", "tank", "--duration", "40", "--seed", "2", "--out",
+                                            "/tmp/x/iron", "--mag-hard-iron-ut", "5", "--mag-soft-iron-pct", "5"});
+  ASSERT_TRUE(options.has_value());
+  const SimSetup setup = buildSimSetup(*options);
+  ASSERT_TRUE(setup.truth.magnetometer_iron.has_value());
+  const MagnetometerIron& iron = *setup.truth.magnetometer_iron;
+  EXPECT_NEAR(iron.hard_iron_t.norm(), 5e-6, 1e-18);
+  // Symmetric, gains 1.05, 0.95 and one within [0.95, 1.05].
+  EXPECT_LT((iron.soft_iron - iron.soft_iron.transpose()).cwiseAbs().maxCoeff(), 1e-15);
+  const Eigen::Vector3d gains = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(iron.soft_iron).eigenvalues();
+  EXPECT_NEAR(gains[0], 0.95, 1e-12);
+  EXPECT_NEAR(gains[2], 1.05, 1e-12);
+  EXPECT_GE(gains[1], 0.95 - 1e-12);
+  EXPECT_LE(gains[1], 1.05 + 1e-12);
+  const SimTruth loaded = savedAndLoaded(setup.truth, "vims_truth_iron");
+  ASSERT_TRUE(loaded.magnetometer_iron.has_value());
+  EXPECT_LT((loaded.magnetometer_iron->hard_iron_t - iron.hard_iron_t).norm(), 1e-18);
+  EXPECT_LT((loaded.magnetometer_iron->soft_iron - iron.soft_iron).cwiseAbs().maxCoeff(), 1e-12);
+
+  // The magnetometer measures W h + b for the outside field h (noise-free here).
+  MagnetometerParams quiet;
+  quiet.noise_std = 0.0;
+  MagnetometerSimulator clean(quiet, Eigen::Isometry3d::Identity(), setup.truth.magneticWorld(), 1);
+  MagnetometerSimulator ironed(quiet, Eigen::Isometry3d::Identity(), setup.truth.magneticWorld(), 1);
+  ironed.setIron(iron);
+  const Eigen::Isometry3d pose = setup.trajectory.pose(20.0);
+  const Eigen::Vector3d h = clean.measure(pose, 20.0);
+  EXPECT_LT((ironed.measure(pose, 20.0) - (iron.soft_iron * h + iron.hard_iron_t)).norm(), 1e-15);
+
+  // Without the options: no iron (and the option's range is checked).
+  const auto plain =
+      parseSimCommandLine({"--scenario", "tank", "--duration", "40", "--seed", "2", "--out", "/tmp/x/plain"});
+  EXPECT_FALSE(buildSimSetup(*plain).truth.magnetometer_iron.has_value());
+  EXPECT_THROW(
+      parseSimCommandLine({"--scenario", "tank", "--seed", "2", "--out", "/tmp/x/bad", "--mag-soft-iron-pct", "30"}),
+      std::invalid_argument);
 }
 
 }  // namespace

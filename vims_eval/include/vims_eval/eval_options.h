@@ -25,7 +25,7 @@ struct EvalOptions {
   /// Keys (all optional, defaults as in the structs):
   ///   max_dt_s, interpolate, max_gt_gap_s, align (a list of se3|sim3|posyaw|none, or "all"),
   ///   rpe_delta_m, loop_trans_tol_m, loop_rot_tol_deg, revisit_radius_m, revisit_gap_s,
-  ///   revisit_margin_s.
+  ///   revisit_margin_s, revisit_coil_radius_m.
   /// Unknown keys and out-of-range values throw ConfigError naming the key.
   static EvalOptions fromReader(const ConfigReader& reader);
   /// The table of the keys above (bounds): drives fromReader, validate and toYaml.

@@ -57,6 +57,13 @@ std::string loopSummaryLine(const LoopEvaluation& ev);
 YAML::Node loopsToYaml(const LoopEvaluation& ev, const LoopScoringOptions& loop_options,
                        const RevisitOptions& revisit_options);
 
+/// `== revisit events near the coils ...` and one line per coil.
+void printCoilRevisits(std::ostream& out, const std::vector<CoilRevisits>& coils, double radius_m);
+/// `VIMS_EVAL_COILS coils=N coil0_events=... coil0_closed=... coil1_events=... ...`
+std::string coilRevisitsSummaryLine(const std::vector<CoilRevisits>& coils);
+/// A list of {coil, position_enu, events, closed}.
+YAML::Node coilRevisitsToYaml(const std::vector<CoilRevisits>& coils);
+
 /// Writes `<dir>/loops_top.png`: ground truth, revisit events, accepted loops drawn between
 /// the ground-truth positions of query and match (green correct, red wrong). Creates `dir`.
 std::vector<std::string> writeLoopPlots(const std::vector<StampedPose>& gt, const LoopEvaluation& ev,

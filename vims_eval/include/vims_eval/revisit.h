@@ -25,6 +25,9 @@ struct RevisitOptions {
   double radius_m = 1.5;    ///< horizontal distance to an earlier position
   double min_gap_s = 60.0;  ///< how much earlier that position must have been occupied
   double margin_s = 0.0;    ///< slack around an event when looking for a closing loop
+  /// Events within this horizontal distance of a coil count for that coil (the nearest one):
+  /// a coil's signatures tell places apart out to ~15 m (docs/real_vehicle.md, "Deploying the coil").
+  double coil_radius_m = 15.0;
 };
 
 struct RevisitEvent {
@@ -55,6 +58,19 @@ struct RevisitSummary {
 };
 
 RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events);
+
+/// The revisit events near one coil: those whose first sample lies within coil_radius_m
+/// (horizontally) of this coil and of no nearer one.
+struct CoilRevisits {
+  int coil = 0;  ///< index in the sequence's coil list
+  Eigen::Vector3d position_w = Eigen::Vector3d::Zero();
+  RevisitSummary summary;
+};
+
+/// One entry per coil position (in the order given), so a sequence of several coils shows
+/// whether loops close near each of them and not only near the strongest.
+std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events,
+                                            const std::vector<Eigen::Vector3d>& coil_positions_w, double radius_m);
 
 /// Everything `vims_eval loops` reports: the scored log and the revisit events it closed.
 struct LoopEvaluation {

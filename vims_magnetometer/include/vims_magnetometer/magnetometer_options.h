@@ -10,6 +10,7 @@
 
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
+#include "vims_magnetometer/iron_calibration.h"
 
 namespace vims {
 
@@ -105,6 +106,11 @@ struct MagnetometerOptions {
   double frequency_tracking_max_offset_hz = 0.5;
   AttitudeFilterOptions attitude;
   CoilSearchOptions coil_search;
+  /// The vehicle's hard and soft iron, taken out of every sample first (iron_calibration.h):
+  /// keys `iron_correction.hard_iron_t` [T, mag frame] and `iron_correction.soft_iron_inverse`
+  /// (3x3 row-major), as vims_mag_calib writes them. The default (none) suits a magnetometer that is
+  /// calibrated before its data reach VIMS, as the sensor contract states.
+  IronCorrection iron_correction;
 
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<MagnetometerOptions>& optionTable();

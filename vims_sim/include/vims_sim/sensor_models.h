@@ -187,8 +187,10 @@ class MagnetometerSimulator {
   static Eigen::Vector3d trueField(const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d& T_b_m,
                                    const MagneticWorld& world, double t);
 
-  /// True field plus white noise.
+  /// True field (through the vehicle's iron, when set) plus white noise.
   Eigen::Vector3d measure(const Eigen::Isometry3d& T_w_b, double t);
+  /// The vehicle's iron (vims_sim --mag-hard-iron-ut, --mag-soft-iron-pct): an uncalibrated magnetometer.
+  void setIron(const MagnetometerIron& iron) { iron_ = iron; }
 
   /// The vehicle's own thrusters (vims_sim --thrusters): their field in the mag frame [T] for the
   /// state at the next sample (call in time order: the lines' phases integrate their frequency).
@@ -204,6 +206,7 @@ class MagnetometerSimulator {
   MagneticWorld world_;
   Rng rng_;
   std::optional<ThrusterInterference> thrusters_;
+  std::optional<MagnetometerIron> iron_;
   std::array<double, 2> line_phase_{0.0, 0.0};
   double last_thruster_t_ = 0.0;
   bool have_thruster_t_ = false;

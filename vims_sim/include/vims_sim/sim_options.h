@@ -85,6 +85,11 @@ struct SimOptions {
     double broadband_nt = 15.0;  ///< extra white noise per axis [nT]
   } thrusters;
   double magnetic_anomaly_width_m = 10.0;
+  /// The magnetometer is not calibrated (the contract expects it to be; a real vehicle's may not
+  /// be): --mag-hard-iron-ut [uT] and --mag-soft-iron-pct [%] of the vehicle's iron
+  /// (thruster_interference.h, MagnetometerIron). 0: none.
+  double mag_hard_iron_ut = 0.0;
+  double mag_soft_iron_pct = 0.0;
   int render_threads = 0;              ///< 0: one per hardware thread
   TerrainOptions terrain;              ///< default: the flat seabed z = 0
   std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold

@@ -84,6 +84,8 @@ struct SimTruth {
   std::optional<MagneticAnomaly> magnetic_anomaly;
   /// Set when the vehicle's thrusters disturb the magnetometer (vims_sim --thrusters).
   std::optional<ThrusterInterference> thrusters;
+  /// Set when the magnetometer is not calibrated (vims_sim --mag-hard-iron-ut, --mag-soft-iron-pct).
+  std::optional<MagnetometerIron> magnetometer_iron;
 
   /// IMU biases at the first sample (they then random-walk).
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< [rad/s]

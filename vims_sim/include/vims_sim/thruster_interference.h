@@ -11,6 +11,7 @@
 /// (m a), so the thrusters' lines sweep with the speed and spike as the vehicle accelerates.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 
@@ -45,6 +46,20 @@ struct ThrusterInterference {
 /// Seeded directions for the lines and the offset (the motors' placement relative to the
 /// magnetometer), the rest as given.
 ThrusterInterference seededThrusterInterference(const ThrusterInterference& params, uint64_t seed);
+
+/// The vehicle's iron as a magnetometer that was not calibrated sees it (vims_sim
+/// --mag-hard-iron-ut, --mag-soft-iron-pct): m = soft_iron h + hard_iron_t for the outside field h
+/// (the geomagnetic field, the coils, an anomaly). The thrusters' own field is added after it.
+struct MagnetometerIron {
+  Eigen::Vector3d hard_iron_t = Eigen::Vector3d::Zero();    ///< [T], mag frame
+  Eigen::Matrix3d soft_iron = Eigen::Matrix3d::Identity();  ///< symmetric, near I
+  Eigen::Vector3d apply(const Eigen::Vector3d& h) const { return soft_iron * h + hard_iron_t; }
+};
+
+/// A hard iron of `hard_iron_ut` [uT] in a seeded direction, and a soft iron whose gains along
+/// three seeded orthogonal axes are 1 + pct/100, 1 - pct/100 and 1 + u pct/100 (u uniform in
+/// [-1, 1]): induced magnetisation scales and skews the field by up to pct percent.
+MagnetometerIron seededMagnetometerIron(double hard_iron_ut, double soft_iron_pct, uint64_t seed);
 
 }  // namespace sim
 }  // namespace vims
