@@ -191,8 +191,7 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
       for (const auto& p : writeLoopPlots(gt, ev, plot_dir)) plots.push_back(p);
       summaries.push_back(loopSummaryLine(ev));
       // Several coils: the revisits near each, so a coil whose loops never close shows.
-      std::string why;
-      const auto coil_positions = readTruthCoilPositions(seq.truth, &why);
+      const auto coil_positions = readTruthCoilPositions(seq.truth, nullptr);
       if (!coil_positions.empty()) {
         const auto coils = revisitsNearCoils(ev.events, coil_positions, options.revisit.coil_radius_m);
         printCoilRevisits(out, coils, options.revisit.coil_radius_m);

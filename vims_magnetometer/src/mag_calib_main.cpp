@@ -3,9 +3,11 @@
 //
 //   vims_mag_calib --sequence DIR [--out FILE] [options]
 //   vims_mag_calib --bag BAG --rig RIG.yaml [--out FILE] [options]
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include "vims_common/sequence_paths.h"
