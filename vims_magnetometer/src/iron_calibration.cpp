@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "vims_common/option_table.h"
+#include "vims_magnetometer/magnetometer_options.h"
 
 namespace vims {
 namespace {
@@ -34,6 +35,11 @@ struct Model {
 constexpr double kPriorWeight = 1e-2;
 constexpr double kCrossTermScale_uT = 50.0;
 
+/// The body's up in the mag frame: the block's specific force, or the mag frame's z without it.
+Eigen::Vector3d upOf(const IronFitSample& s) {
+  return s.has_specific_force ? s.specific_force.normalized() : Eigen::Vector3d::UnitZ();
+}
+
 /// Full: |h| - F. Horizontal: |up x h| - B_h and up.h - B_z (the level frame's components of a
 /// constant field stay constant while the heading turns).
 void sampleResiduals(const Model& model, const IronCorrection& c, double field, double vertical, const IronFitSample& s,
@@ -43,7 +49,7 @@ void sampleResiduals(const Model& model, const IronCorrection& c, double field, 
     r[0] = h.norm() - field;
     return;
   }
-  const Eigen::Vector3d up = s.has_specific_force ? s.specific_force.normalized() : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d up = upOf(s);
   r[0] = up.cross(h).norm() - field;
   r[1] = up.dot(h) - vertical;
 }
@@ -270,10 +276,7 @@ IronFitResult fitIronCorrection(const std::vector<IronFitSample>& input, const I
     model.field = [](const Eigen::VectorXd& q) { return q[7]; };
     model.vertical = [](const Eigen::VectorXd& q) { return q[8]; };
     double mean_vertical = 0.0;
-    for (const auto& s : samples) {
-      const Eigen::Vector3d up = s.has_specific_force ? s.specific_force.normalized() : Eigen::Vector3d::UnitZ();
-      mean_vertical += up.dot(s.field_t) / static_cast<double>(samples.size());
-    }
+    for (const auto& s : samples) mean_vertical += upOf(s).dot(s.field_t) / static_cast<double>(samples.size());
     p = Eigen::VectorXd::Zero(9);
     p.head<2>() = centre_xy;
     p[7] = H0;
@@ -313,7 +316,6 @@ IronFitResult fitIronCorrection(const std::vector<IronFitSample>& input, const I
 }
 
 std::string ironCorrectionConfigYaml(const IronFitResult& fit) {
-  const IronCorrection& c = fit.correction;
   std::ostringstream os;
   os << "# vims_mag_calib: " << ironFitModelName(fit.model) << " fit of " << fit.samples << " blocks; field magnitude "
      << formatOptionNumber(fit.field_t * 1e6) << " uT"
@@ -324,11 +326,8 @@ std::string ironCorrectionConfigYaml(const IronFitResult& fit) {
     os << "# Level turns only: the soft iron's vertical gain is left at 1 (level turns cannot tell it from the "
           "field's\n"
           "# vertical component).\n";
-  os << "magnetometer:\n  iron_correction:\n    hard_iron_t: [";
-  for (int i = 0; i < 3; ++i) os << (i ? ", " : "") << formatOptionNumber(c.hard_iron_t[i]);
-  os << "]\n    soft_iron_inverse: [";
-  for (int i = 0; i < 9; ++i) os << (i ? ", " : "") << formatOptionNumber(c.soft_iron_inverse(i / 3, i % 3));
-  os << "]\n";
+  // The option table writes the keys, so the file reads back exactly as MagnetometerOptions reads it.
+  os << "magnetometer:\n  iron_correction:\n" << indentYaml(ironCorrectionYaml(fit.correction), "    ");
   return os.str();
 }
 

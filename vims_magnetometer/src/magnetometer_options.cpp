@@ -85,6 +85,8 @@ const OptionTable<IronCorrection>& ironCorrectionTable() {
 
 }  // namespace
 
+std::string ironCorrectionYaml(const IronCorrection& correction) { return ironCorrectionTable().toYaml(correction); }
+
 const OptionTable<MagnetometerOptions>& MagnetometerOptions::optionTable() {
   using O = MagnetometerOptions;
   // snr_inner_bins >= 2: closer bins sit in the Hann main lobe and would measure the coil, not the noise.

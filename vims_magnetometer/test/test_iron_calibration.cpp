@@ -75,6 +75,11 @@ TEST(IronFit, FullFitFromATumbleRecoversHardAndSoftIron) {
   EXPECT_LT((fit.correction.hard_iron_t - kHardIron).norm(), 30e-9);
   EXPECT_GT(fit.rms_before_t, 1e-6);  // the raw magnitude swings by microtesla
   EXPECT_LT(fit.rms_after_t, 40e-9);  // down to the 20 nT noise (x sqrt(3) for three axes at most)
+  // The file vims_mag_calib writes reads back as the same correction.
+  const auto read_back = MagnetometerOptions::fromReader(
+      ConfigReader::fromString(ironCorrectionConfigYaml(fit), "iron.yaml").child("magnetometer"));
+  EXPECT_EQ(read_back.iron_correction.hard_iron_t, fit.correction.hard_iron_t);
+  EXPECT_EQ(read_back.iron_correction.soft_iron_inverse, fit.correction.soft_iron_inverse);
 
   // Without the site's field the overall scale stays the sensor's: K W is a multiple of I.
   const IronFitResult free_scale = fitIronCorrection(samples, IronFitOptions{});

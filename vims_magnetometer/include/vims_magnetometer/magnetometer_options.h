@@ -68,6 +68,10 @@ struct CoilSearchOptions {
   static const OptionTable<CoilSearchOptions>& optionTable();
 };
 
+/// The keys of `iron_correction` (hard_iron_t, soft_iron_inverse) as MagnetometerOptions writes
+/// and reads them: what vims_mag_calib puts in its file.
+std::string ironCorrectionYaml(const IronCorrection& correction);
+
 struct MagnetometerOptions {
   /// Length of one spectral window [s]. The paper's high-rate magnetometer reaches good
   /// signatures with 2 s of data (22 coil periods at 11 Hz, bin spacing 0.5 Hz).
