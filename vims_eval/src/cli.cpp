@@ -190,10 +190,10 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
       root["loops"] = node;
       for (const auto& p : writeLoopPlots(gt, ev, plot_dir)) plots.push_back(p);
       summaries.push_back(loopSummaryLine(ev));
-      // Several coils: the revisits near each, so a coil whose loops never close shows.
+      // Several coils: the revisits and loops near each, so a coil whose loops never close shows.
       const auto coil_positions = readTruthCoilPositions(seq.truth, nullptr);
       if (!coil_positions.empty()) {
-        const auto coils = revisitsNearCoils(ev.events, coil_positions, options.revisit.coil_radius_m);
+        const auto coils = revisitsNearCoils(ev.events, ev.score, coil_positions, options.revisit.coil_radius_m);
         printCoilRevisits(out, coils, options.revisit.coil_radius_m);
         root["loops"]["near_coils"] = coilRevisitsToYaml(coils);
         summaries.push_back(coilRevisitsSummaryLine(coils));

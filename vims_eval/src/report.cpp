@@ -283,12 +283,14 @@ void printLoopReport(std::ostream& out, const LoopEvaluation& ev, const LoopScor
 }
 
 void printCoilRevisits(std::ostream& out, const std::vector<CoilRevisits>& coils, double radius_m) {
-  out << "== revisit events near the coils (first sample within " << num(radius_m, 1)
+  out << "== revisit events and accepted loops near the coils (first sample / query within " << num(radius_m, 1)
       << " m horizontally, counted for the nearest coil):\n";
   char buf[256];
   for (const auto& c : coils) {
-    std::snprintf(buf, sizeof(buf), "   coil %d at (%.2f, %.2f): %zu, closed %zu (%.1f %%)\n", c.coil, c.position_w.x(),
-                  c.position_w.y(), c.summary.events, c.summary.closed, c.summary.closedPercent());
+    std::snprintf(buf, sizeof(buf),
+                  "   coil %d at (%.2f, %.2f): %zu events, closed %zu (%.1f %%); loops %zu correct, %zu wrong\n",
+                  c.coil, c.position_w.x(), c.position_w.y(), c.summary.events, c.summary.closed,
+                  c.summary.closedPercent(), c.loops_correct, c.loops_wrong);
     out << buf;
   }
 }
@@ -297,7 +299,9 @@ std::string coilRevisitsSummaryLine(const std::vector<CoilRevisits>& coils) {
   std::ostringstream os;
   os << "VIMS_EVAL_COILS coils=" << coils.size();
   for (const auto& c : coils)
-    os << " coil" << c.coil << "_events=" << c.summary.events << " coil" << c.coil << "_closed=" << c.summary.closed;
+    os << " coil" << c.coil << "_events=" << c.summary.events << " coil" << c.coil << "_closed=" << c.summary.closed
+       << " coil" << c.coil << "_loops_correct=" << c.loops_correct << " coil" << c.coil
+       << "_loops_wrong=" << c.loops_wrong;
   return os.str();
 }
 
@@ -309,6 +313,8 @@ YAML::Node coilRevisitsToYaml(const std::vector<CoilRevisits>& coils) {
     for (int k = 0; k < 3; ++k) node["position_enu"].push_back(yamlNumber(c.position_w[k]));
     node["events"] = c.summary.events;
     node["closed"] = c.summary.closed;
+    node["loops_correct"] = c.loops_correct;
+    node["loops_wrong"] = c.loops_wrong;
     list.push_back(node);
   }
   return list;

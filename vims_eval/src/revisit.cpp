@@ -113,7 +113,24 @@ RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events) {
   return s;
 }
 
-std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events,
+namespace {
+/// Index of the coil nearest to p horizontally within radius_m, if any.
+std::optional<std::size_t> nearestCoil(const Eigen::Vector3d& p_w, const std::vector<Eigen::Vector3d>& coil_positions_w,
+                                       double radius_m) {
+  std::optional<std::size_t> nearest;
+  double nearest_m = radius_m;
+  for (std::size_t i = 0; i < coil_positions_w.size(); ++i) {
+    const double d = (p_w.head<2>() - coil_positions_w[i].head<2>()).norm();
+    if (d <= nearest_m) {
+      nearest_m = d;
+      nearest = i;
+    }
+  }
+  return nearest;
+}
+}  // namespace
+
+std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events, const LoopScore& score,
                                             const std::vector<Eigen::Vector3d>& coil_positions_w, double radius_m) {
   std::vector<CoilRevisits> out(coil_positions_w.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
@@ -121,19 +138,17 @@ std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& eve
     out[i].position_w = coil_positions_w[i];
   }
   for (const auto& event : events) {
-    std::optional<std::size_t> nearest;
-    double nearest_m = radius_m;
-    for (std::size_t i = 0; i < coil_positions_w.size(); ++i) {
-      const double d = (event.p_w_start.head<2>() - coil_positions_w[i].head<2>()).norm();
-      if (d <= nearest_m) {
-        nearest_m = d;
-        nearest = i;
-      }
-    }
-    if (!nearest) continue;
-    RevisitSummary& s = out[*nearest].summary;
+    const auto coil = nearestCoil(event.p_w_start, coil_positions_w, radius_m);
+    if (!coil) continue;
+    RevisitSummary& s = out[*coil].summary;
     ++s.events;
     if (event.closed) ++s.closed;
+  }
+  for (const auto& loop : score.loops) {
+    if (!loop.record.accepted || !loop.has_gt) continue;
+    const auto coil = nearestCoil(loop.p_w_query_gt, coil_positions_w, radius_m);
+    if (!coil) continue;
+    ++(loop.within_tolerance ? out[*coil].loops_correct : out[*coil].loops_wrong);
   }
   return out;
 }

@@ -203,17 +203,23 @@ TEST(Cli, RunCountsTheRevisitsNearEachCoilOfTheTruthFile) {
   }
   const CliResult result = run({"run", "--sequence", seq.string(), "--out", out.string()});
   ASSERT_EQ(result.code, 0) << result.err;
-  EXPECT_NE(result.out.find("VIMS_EVAL_COILS coils=2 coil0_events=1 coil0_closed=1 coil1_events=0 coil1_closed=0"),
-            std::string::npos)
+  // The accepted loop's query (t = 1090) is at (7.1, 3.5), 4.6 m from coil 0.
+  EXPECT_NE(
+      result.out.find("VIMS_EVAL_COILS coils=2 coil0_events=1 coil0_closed=1 coil0_loops_correct=1 "
+                      "coil0_loops_wrong=0 coil1_events=0 coil1_closed=0 coil1_loops_correct=0 coil1_loops_wrong=0"),
+      std::string::npos)
       << result.out;
   const YAML::Node yaml = YAML::LoadFile((out / "eval.yaml").string());
   ASSERT_EQ(yaml["loops"]["near_coils"].size(), 2u);
   EXPECT_EQ(yaml["loops"]["near_coils"][1]["coil"].as<int>(), 1);
   EXPECT_DOUBLE_EQ(yaml["loops"]["near_coils"][1]["position_enu"][0].as<double>(), -10.0);
+  EXPECT_EQ(yaml["loops"]["near_coils"][0]["loops_correct"].as<int>(), 1);
 
   // A radius of 25 m takes coil 1 in, but the event counts once, for the nearest coil.
   const CliResult wide = run({"run", "--sequence", seq.string(), "--out", out.string(), "--revisit-coil-radius", "25"});
-  EXPECT_NE(wide.out.find("coil0_events=1 coil0_closed=1 coil1_events=0"), std::string::npos) << wide.out;
+  EXPECT_NE(wide.out.find("coil0_events=1 coil0_closed=1 coil0_loops_correct=1 coil0_loops_wrong=0 coil1_events=0"),
+            std::string::npos)
+      << wide.out;
 
   // A malformed position is an error naming the key.
   std::ofstream(seq / "lap_truth.yaml") << "coil: {position_enu: [10, 0]}\n";

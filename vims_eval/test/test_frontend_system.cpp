@@ -1,13 +1,15 @@
-// System test of both front ends on simulated sequences (CTest fixtures sim_tank30 and
-// sim_tank480_sensors, see test/CMakeLists.txt), scored against ground truth with the same code
-// as `vims_frontend_eval` (tools/frontend_eval.h defines the figures).
+// System test of both front ends on simulated sequences (CTest fixtures sim_tank30,
+// sim_tank480_sensors and sim_tank300_iron, see test/CMakeLists.txt), scored against ground truth
+// with the same code as `vims_frontend_eval` (tools/frontend_eval.h defines the figures).
 #include <gtest/gtest.h>
 #include <ros/time.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 
 #include "frontend_eval.h"
+#include "vims_test/tool_runner.h"
 
 using namespace vims;
 using namespace vims::frontend_eval;
@@ -69,4 +71,37 @@ TEST(FrontendSystem, MagneticSignaturesMatchTheDipoleAndAreHeadingInvariant) {
   EXPECT_LE(ev.heading_median_rel_diff_pct, 5.0);
   // Windows around the 0.2 s magnetometer outage and the 0.4 s IMU gap are invalid, not wrong.
   EXPECT_LT(ev.valid_windows, ev.windows);
+}
+
+// Issue 22: a vehicle with 5 uT of hard and 5 % of soft iron. vims_mag_calib, run as a user
+// would on the recording, fits the correction from the mission's own turns and writes a config
+// file; with it the signatures are within the issue's 2 % (measured: 6.28 % without, 1.43 % with,
+// residual 1543 -> 30 nT; docs/frontends.md, "Iron calibration").
+TEST(FrontendSystem, IronCalibrationFromTheMissionsTurnsRestoresTheSignatures) {
+  ros::Time::init();
+  const std::string dir = sequenceDir("tank300_iron");
+  ASSERT_FALSE(dir.empty());
+  const std::filesystem::path out = vims::test::freshDir("iron_calibration") / "iron.yaml";
+  const auto calib = vims::test::runCommand(std::string(VIMS_DEVEL_BIN_DIR) + "/vims_mag_calib --sequence " + dir +
+                                            " --out " + out.string());
+  std::cout << calib.output << std::endl;
+  ASSERT_EQ(calib.exit_code, 0);
+  const std::string line = calib.output.substr(calib.output.rfind("VIMS_MAG_CALIB"));
+  EXPECT_NE(line.find("ok=1 model=horizontal"), std::string::npos) << line;
+  const auto value = [&](const std::string& key) {
+    const auto at = line.find(" " + key + "=");
+    return at == std::string::npos ? -1.0 : std::stod(line.substr(at + key.size() + 2));
+  };
+  EXPECT_GT(value("rms_before_nt"), 800.0);
+  EXPECT_LT(value("rms_after_nt"), 60.0);
+
+  const MagEvaluationOptions eval_options;
+  const MagEvaluation raw = evaluateMagnetometer(dir, MagnetometerOptions{}, eval_options, logger());
+  const MagnetometerOptions corrected_options =
+      MagnetometerOptions::fromReader(ConfigReader::fromFile(out.string()).child("magnetometer"));
+  const MagEvaluation corrected = evaluateMagnetometer(dir, corrected_options, eval_options, logger());
+  std::cout << "uncorrected: " << raw.summaryLine() << "\ncorrected: " << corrected.summaryLine() << std::endl;
+  EXPECT_GT(raw.median_rel_err_pct, 4.0) << "the iron must matter, or this test shows nothing";
+  EXPECT_GT(corrected.scored, 250);
+  EXPECT_LE(corrected.median_rel_err_pct, 2.0);
 }

@@ -160,7 +160,7 @@ TEST(Revisit, GridSearchMatchesBruteForce) {
   EXPECT_EQ(covered, revisiting);
 }
 
-TEST(Revisit, EventsCountForTheNearestCoilWithinTheRadius) {
+TEST(Revisit, EventsAndLoopsCountForTheNearestCoilWithinTheRadius) {
   std::vector<RevisitEvent> events(4);
   events[0].p_w_start = Eigen::Vector3d(1, 0, -10);   // 1 m from coil 0, 29 m from coil 1
   events[1].p_w_start = Eigen::Vector3d(16, 0, -10);  // 16 m from coil 0, 14 m from coil 1
@@ -168,16 +168,38 @@ TEST(Revisit, EventsCountForTheNearestCoilWithinTheRadius) {
   events[3].p_w_start = Eigen::Vector3d(0, 40, -10);  // beyond 15 m of both: no coil's
   events[0].closed = true;
   events[2].closed = true;
-  const auto coils = revisitsNearCoils(events, {Eigen::Vector3d(0, 0, -12), Eigen::Vector3d(30, 0, -12)}, 15.0);
+  // Loops by their query's true position: two correct near coil 0, one wrong near coil 1, and
+  // three that do not count (rejected, no ground truth, beyond both radii).
+  LoopScore score;
+  const auto loop = [&](const Eigen::Vector3d& p, bool accepted, bool has_gt, bool right) {
+    ScoredLoop l;
+    l.record.accepted = accepted;
+    l.has_gt = has_gt;
+    l.within_tolerance = right;
+    l.p_w_query_gt = p;
+    score.loops.push_back(l);
+  };
+  loop(Eigen::Vector3d(2, 1, -10), true, true, true);
+  loop(Eigen::Vector3d(-5, 0, -10), true, true, true);
+  loop(Eigen::Vector3d(28, 0, -10), true, true, false);
+  loop(Eigen::Vector3d(29, 0, -10), false, true, true);
+  loop(Eigen::Vector3d(30, 0, -10), true, false, true);
+  loop(Eigen::Vector3d(0, 40, -10), true, true, true);
+  const auto coils = revisitsNearCoils(events, score, {Eigen::Vector3d(0, 0, -12), Eigen::Vector3d(30, 0, -12)}, 15.0);
   ASSERT_EQ(coils.size(), 2u);
   EXPECT_EQ(coils[0].coil, 0);
   EXPECT_EQ(coils[0].summary.events, 1u);
   EXPECT_EQ(coils[0].summary.closed, 1u);
+  EXPECT_EQ(coils[0].loops_correct, 2u);
+  EXPECT_EQ(coils[0].loops_wrong, 0u);
   EXPECT_EQ(coils[1].coil, 1);
   EXPECT_EQ(coils[1].summary.events, 2u);
   EXPECT_EQ(coils[1].summary.closed, 1u);
+  EXPECT_EQ(coils[1].loops_correct, 0u);
+  EXPECT_EQ(coils[1].loops_wrong, 1u);
   EXPECT_DOUBLE_EQ(coils[1].position_w.x(), 30.0);
-  // A smaller radius drops the event 14 m from coil 1.
-  EXPECT_EQ(revisitsNearCoils(events, {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(30, 0, 0)}, 10.0)[1].summary.events,
-            1u);
+  // A smaller radius drops the event 14 m from coil 1 and the loop 5 m from coil 0.
+  const auto near = revisitsNearCoils(events, score, {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(30, 0, 0)}, 4.0);
+  EXPECT_EQ(near[1].summary.events, 1u);
+  EXPECT_EQ(near[0].loops_correct, 1u);
 }

@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "vims_common/magnetic_signature.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/timing.h"
@@ -23,6 +24,8 @@ namespace frontend_eval {
 namespace {
 
 constexpr const char* kComponent = "frontend_eval";
+/// Windows whose true field is at least this share horizontal have a meaningful azimuth.
+constexpr double kMinHorizontalShare = 0.3;
 /// Ground truth is written at 50 Hz or faster; a longer hole is not interpolated across.
 constexpr double kMaxTruthGap = 0.1;
 /// The evaluation's outlier threshold in units of range_noise_std (issue 3's definition).
@@ -85,7 +88,10 @@ std::string MagEvaluation::summaryLine() const {
          " scored=" + std::to_string(scored) + " median_rel_err_pct=" + fmt(median_rel_err_pct, 2) +
          " p90_rel_err_pct=" + fmt(p90_rel_err_pct, 2) + " heading_pairs=" + std::to_string(heading_pairs) +
          " heading_median_rel_diff_pct=" + fmt(heading_median_rel_diff_pct, 2) +
-         " heading_median_raw_diff_pct=" + fmt(heading_median_raw_diff_pct, 2) + " median_snr=" + fmt(median_snr, 1);
+         " heading_median_raw_diff_pct=" + fmt(heading_median_raw_diff_pct, 2) + " median_snr=" + fmt(median_snr, 1) +
+         " median_magnitude_err_pct=" + fmt(median_magnitude_err_pct, 2) +
+         " median_azimuth_err_deg=" + fmt(median_azimuth_err_deg, 2) +
+         " mean_azimuth_err_deg=" + fmt(mean_azimuth_err_deg, 2);
 }
 
 std::string MagCoilEvaluation::summaryLine() const {
@@ -178,7 +184,7 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
     Eigen::Vector3d truth;
   };
   std::vector<Scored> scored;
-  std::vector<double> rel_errors, snrs;
+  std::vector<double> rel_errors, snrs, magnitude_errors, azimuth_errors;
   // Per coil of the truth: index = SignatureWindow::coil.
   std::vector<std::vector<double>> coil_rel_errors(static_cast<size_t>(truth.coilCount()));
   MagEvaluation ev;
@@ -205,11 +211,26 @@ MagEvaluation evaluateMagnetometer(const std::string& sequence_dir, const Magnet
     scored.push_back({sig.t, sig.coil, p_w_m, std::atan2(x_w.y(), x_w.x()), sig.amplitude_enu, g});
     rel_errors.push_back((sig.amplitude_enu - g).norm() / g.norm());
     coil_rel_errors[static_cast<size_t>(sig.coil)].push_back(rel_errors.back());
+    magnitude_errors.push_back(std::abs(sig.amplitude_enu.norm() - g.norm()) / g.norm());
+    if (g.head<2>().norm() >= kMinHorizontalShare * g.norm()) {
+      const Eigen::Vector3d s = alignedSignature(sig.amplitude_enu, g);
+      const double d = std::atan2(s.y(), s.x()) - std::atan2(g.y(), g.x());
+      azimuth_errors.push_back(std::atan2(std::sin(d), std::cos(d)) * 180.0 / M_PI);
+    }
   }
   ev.scored = static_cast<long>(scored.size());
   ev.median_rel_err_pct = 100.0 * percentile(rel_errors, 0.5);
   ev.p90_rel_err_pct = 100.0 * percentile(rel_errors, 0.9);
   ev.median_snr = percentile(snrs, 0.5);
+  ev.median_magnitude_err_pct = 100.0 * percentile(magnitude_errors, 0.5);
+  std::vector<double> azimuth_sizes;
+  double azimuth_sum = 0.0;
+  for (const double a : azimuth_errors) {
+    azimuth_sizes.push_back(std::abs(a));
+    azimuth_sum += a;
+  }
+  ev.median_azimuth_err_deg = percentile(azimuth_sizes, 0.5);
+  ev.mean_azimuth_err_deg = azimuth_errors.empty() ? 0.0 : azimuth_sum / static_cast<double>(azimuth_errors.size());
   for (int i = 0; i < truth.coilCount(); ++i) {
     MagCoilEvaluation coil;
     coil.coil = i;

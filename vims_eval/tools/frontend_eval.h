@@ -75,6 +75,13 @@ struct MagEvaluation {
   double heading_median_rel_diff_pct = 0.0;  ///< compensated for the field change (see above)
   double heading_median_raw_diff_pct = 0.0;  ///< |s_i - s_j| / mean |g|
   double median_snr = 0.0;
+  /// The error split into what a rotation cannot cause and what a heading error causes:
+  /// median of ||s| - |g|| / |g|, and the azimuth of s's horizontal part minus g's [deg]
+  /// (median of its size, and its mean: a bias) over windows whose true field is at least 30 %
+  /// horizontal. A front end whose attitude is off in heading shows the second, not the first.
+  double median_magnitude_err_pct = 0.0;
+  double median_azimuth_err_deg = 0.0;
+  double mean_azimuth_err_deg = 0.0;
   long unknown_coil = 0;  ///< valid windows whose coil index the truth does not have (not scored)
   /// One per truth coil, in the sequence's order (a single entry for a sequence of one coil).
   std::vector<MagCoilEvaluation> coils;

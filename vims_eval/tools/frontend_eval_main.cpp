@@ -95,6 +95,8 @@ int main(int argc, char** argv) {
                   ev.valid_windows, eval_options.min_amplitude_t * 1e9, ev.scored, ev.median_snr);
       std::printf("  relative amplitude error: median %.2f %%, 90th percentile %.2f %%\n", ev.median_rel_err_pct,
                   ev.p90_rel_err_pct);
+      std::printf("  of which: magnitude error median %.2f %%; azimuth error median %.2f deg, mean %+.2f deg\n",
+                  ev.median_magnitude_err_pct, ev.median_azimuth_err_deg, ev.mean_azimuth_err_deg);
       if (ev.coils.size() > 1) {
         for (const auto& coil : ev.coils) {
           std::printf(

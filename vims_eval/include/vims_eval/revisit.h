@@ -59,17 +59,21 @@ struct RevisitSummary {
 
 RevisitSummary summarizeRevisits(const std::vector<RevisitEvent>& events);
 
-/// The revisit events near one coil: those whose first sample lies within coil_radius_m
-/// (horizontally) of this coil and of no nearer one.
+/// What happened near one coil: the revisit events whose first sample lies within coil_radius_m
+/// (horizontally) of this coil and of no nearer one, and the accepted loops whose query lies there
+/// (ground-truth position of the query keyframe).
 struct CoilRevisits {
   int coil = 0;  ///< index in the sequence's coil list
   Eigen::Vector3d position_w = Eigen::Vector3d::Zero();
   RevisitSummary summary;
+  std::size_t loops_correct = 0;  ///< accepted loops near this coil within the scoring tolerance
+  std::size_t loops_wrong = 0;    ///< accepted loops near this coil outside it
 };
 
 /// One entry per coil position (in the order given), so a sequence of several coils shows
-/// whether loops close near each of them and not only near the strongest.
-std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events,
+/// whether loops close near each of them and not only near the strongest. Loops without ground
+/// truth at a stamp are not counted.
+std::vector<CoilRevisits> revisitsNearCoils(const std::vector<RevisitEvent>& events, const LoopScore& score,
                                             const std::vector<Eigen::Vector3d>& coil_positions_w, double radius_m);
 
 /// Everything `vims_eval loops` reports: the scored log and the revisit events it closed.
