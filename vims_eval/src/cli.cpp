@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -14,6 +15,7 @@
 #include "vims_eval/eval_options.h"
 #include "vims_eval/loops.h"
 #include "vims_eval/metrics.h"
+#include "vims_eval/relocalisation.h"
 #include "vims_eval/report.h"
 #include "vims_eval/revisit.h"
 #include "vims_eval/truth_coils.h"
@@ -216,6 +218,49 @@ int commandRun(const std::vector<std::string>& argv, std::ostream& out, std::ost
   return failed ? kExitFailure : kExitOk;
 }
 
+/// The global trajectory of a vims_offline output directory.
+std::vector<StampedPose> readGlobal(const std::string& out_dir, const char* what) {
+  return readTrajectory((fs::path(out_dir) / "global.tum").string(), what);
+}
+
+int commandRelocalisation(const std::vector<std::string>& argv, std::ostream& out) {
+  const CliArgs args(argv, 1,
+                     {{"teach-sequence", true},
+                      {"teach-out", true},
+                      {"sequence", true},
+                      {"out", true},
+                      {"map-radius", true},
+                      {"correct-tol", true}},
+                     "relocalisation");
+  const SequencePaths teach_seq = SequencePaths::resolve(args.required("teach-sequence", "relocalisation"));
+  const std::string teach_out = args.required("teach-out", "relocalisation");
+  const SequencePaths repeat_seq = SequencePaths::resolve(args.required("sequence", "relocalisation"));
+  const std::string repeat_out = args.required("out", "relocalisation");
+  RelocalisationOptions options;
+  args.number("map-radius", &options.map_radius_m);
+  args.number("correct-tol", &options.correct_tol_m);
+  if (!(options.map_radius_m > 0.0) || !(options.correct_tol_m > 0.0))
+    throw UsageError("--map-radius and --correct-tol must be > 0");
+  for (const SequencePaths* seq : {&teach_seq, &repeat_seq})
+    if (seq->gt.empty()) throw std::runtime_error("sequence '" + seq->dir + "' has no ground truth");
+
+  const auto teach_gt = readTrajectory(teach_seq.gt, "ground-truth");
+  const auto repeat_gt = readTrajectory(repeat_seq.gt, "ground-truth");
+  // Loops into the map are scored against the teach run's truth (a log without the
+  // match_in_map column has none).
+  const std::string loops_path = (fs::path(repeat_out) / "loops.csv").string();
+  std::optional<LoopScore> loops;
+  if (fs::exists(loops_path)) loops = scoreLoops(readLoopCsv(loops_path), repeat_gt, LoopScoringOptions{}, &teach_gt);
+  const RelocalisationEvaluation ev = evaluateRelocalisation(
+      teach_gt, readGlobal(teach_out, "teach run's global"), repeat_gt, readGlobal(repeat_out, "repeat run's global"),
+      readRelocalisationReport((fs::path(repeat_out) / "summary.yaml").string()), options, loops ? &*loops : nullptr);
+  printRelocalisationReport(out, ev, options);
+  const std::string yaml_path = (fs::path(repeat_out) / "relocalisation.yaml").string();
+  writeYamlFile(yaml_path, relocalisationToYaml(ev));
+  out << "   wrote " << yaml_path << "\n" << ev.summaryLine() << std::endl;
+  return kExitOk;
+}
+
 bool wantsHelp(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -235,6 +280,8 @@ usage:
                   [--revisit-radius 1.5] [--revisit-gap 60] [--revisit-margin 0] [--plots DIR]
                   [--config FILE]
   vims_eval run --sequence DIR --out OUT [any option of traj and loops except --gt/--est/--loops/--plots/--label]
+  vims_eval relocalisation --teach-sequence DIR --teach-out OUT --sequence DIR --out OUT
+                           [--map-radius 1.5] [--correct-tol 0.5]
   vims_eval ablation --sequence DIR --out OUT [--jobs 2] [--modes vi_slam,no_sonar,no_alter,no_orb,no_geom,full]
                      [--offline PATH] [--offline-config FILE] [--package-root DIR] [--no-run] [--no-figures]
                      [evaluation options as run]
@@ -250,6 +297,12 @@ usage:
          sequence's <seq>_gt.tum; writes OUT/eval.yaml and OUT/plots/*.png. With a
          <seq>_truth.yaml that gives the coils' positions, also the revisit events near each
          coil (--revisit-coil-radius 15); last line 'VIMS_EVAL_COILS ...'.
+  relocalisation  teach and repeat: the repeat run (vims_offline --map-load the teach run's map,
+         output OUT) against the teach run (output --teach-out): when it entered the mapped area
+         (within --map-radius m of the teach track), when and how right it relocalised
+         (pose_graph.relocalised_t of OUT/summary.yaml; wrong beyond --correct-tol m), and its
+         ATE in the map's frame from then on beside the teach run's own; writes
+         OUT/relocalisation.yaml; last line 'VIMS_EVAL_RELOC ...'.
   ablation  runs vims_offline (next to this executable, or --offline) once per variant into
          OUT/<mode>/ (--jobs at a time, --map-save OUT/<mode>/map.vimsmap), evaluates global.tum (SE3),
          vio.tum and loops.csv, prints the paper's table, writes OUT/ablation.md, OUT/ablation.csv,
@@ -279,10 +332,11 @@ int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ost
     if (command == "traj") return commandTraj(args, out);
     if (command == "loops") return commandLoops(args, out);
     if (command == "run") return commandRun(args, out, err);
+    if (command == "relocalisation") return commandRelocalisation(args, out);
     const auto extra = extra_commands.find(command);
     if (extra != extra_commands.end()) return extra->second(args, out, err);
     throw UsageError("unknown command '" + command +
-                     "' (expected traj, loops, run, ablation, place-recognition or map-size)");
+                     "' (expected traj, loops, run, relocalisation, ablation, place-recognition or map-size)");
   } catch (const UsageError& e) {
     err << "vims_eval: " << e.what() << "\n(see vims_eval --help)\n";
     return kExitUsage;

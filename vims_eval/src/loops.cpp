@@ -135,6 +135,7 @@ std::vector<LoopRecord> parseLoopCsv(std::istream& in, const std::string& source
     r.mag_distance = row.optionalNumber(field("mag_distance"), "mag_distance");
     r.bow_score = row.optionalNumber(field("bow_score"), "bow_score");
     r.stage = field("stage");
+    if (column_index.count("match_in_map")) r.match_in_map = row.boolean(field("match_in_map"), "match_in_map");
     records.push_back(r);
   }
   if (header_size == 0)
@@ -169,14 +170,16 @@ double LoopScore::precision() const {
 }
 
 LoopScore scoreLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
-                     const LoopScoringOptions& options) {
+                     const LoopScoringOptions& options, const std::vector<StampedPose>* map_gt) {
   LoopScore score;
   score.verifications = records.size();
   for (const auto& record : records) {
     ScoredLoop s;
     s.record = record;
     const std::optional<StampedPose> T_w_query = interpolatePose(gt, record.t_query, options.max_gt_gap_s);
-    const std::optional<StampedPose> T_w_match = interpolatePose(gt, record.t_match, options.max_gt_gap_s);
+    const std::vector<StampedPose>* match_gt = record.match_in_map ? map_gt : &gt;
+    const std::optional<StampedPose> T_w_match =
+        match_gt ? interpolatePose(*match_gt, record.t_match, options.max_gt_gap_s) : std::nullopt;
     if (T_w_query && T_w_match) {
       s.has_gt = true;
       s.p_w_query_gt = T_w_query->p;

@@ -227,3 +227,63 @@ TEST(Cli, RunCountsTheRevisitsNearEachCoilOfTheTruthFile) {
   EXPECT_EQ(bad.code, 1);
   EXPECT_NE(bad.err.find("coil.position_enu"), std::string::npos) << bad.err;
 }
+
+TEST(Cli, RelocalisationScoresARepeatRunAgainstTheTeachRunsMap) {
+  const fs::path root = tempDir("relocalisation");
+  const auto gt = groundTruth();  // the teach run: an ellipse, 160 s
+  // The repeat run: the same place 500 s later, its global poses in the teach map's frame
+  // (here the world itself) 0.05 m off in y, relocalised 2 s in by a loop into the map.
+  std::vector<StampedPose> repeat_gt = gt;
+  for (auto& p : repeat_gt) p.t += 500.0;
+  std::vector<StampedPose> repeat_est = estimate(repeat_gt, 0.0);
+  for (auto& p : repeat_est) p.p.y() += 0.05;
+  for (const char* name : {"teach", "repeat"}) {
+    fs::create_directories(root / name);
+    fs::create_directories(root / (std::string(name) + "_out"));
+    std::ofstream(root / name / (std::string(name) + ".bag")).put('\n');
+    std::ofstream(root / name / (std::string(name) + ".yaml")) << "{}\n";
+  }
+  vims::writeTumFile((root / "teach" / "teach_gt.tum").string(), gt);
+  vims::writeTumFile((root / "teach_out" / "global.tum").string(), estimate(gt, 0.0));
+  vims::writeTumFile((root / "repeat" / "repeat_gt.tum").string(), repeat_gt);
+  vims::writeTumFile((root / "repeat_out" / "global.tum").string(), repeat_est);
+  std::ofstream(root / "repeat_out" / "summary.yaml")
+      << "pose_graph: {keyframes: 3, relocalised: true, relocalised_t: 1502.000}\n";
+  {
+    // One loop into the map (the teach run's t = 1010 seen again at the repeat's t = 1510), right.
+    std::ofstream loops(root / "repeat_out" / "loops.csv");
+    const StampedPose& q = repeat_gt[200];
+    const StampedPose& m = gt[200];
+    const Eigen::Quaterniond q_m_q = m.q.conjugate() * q.q;
+    const Eigen::Vector3d p_m_q = m.q.conjugate() * (q.p - m.p);
+    loops.precision(12);
+    loops << "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,match_in_map\n"
+          << q.t << "," << m.t << ",1," << p_m_q.x() << "," << p_m_q.y() << "," << p_m_q.z() << "," << q_m_q.x() << ","
+          << q_m_q.y() << "," << q_m_q.z() << "," << q_m_q.w() << ",50,,0.2,accepted,1\n";
+  }
+  const std::vector<std::string> args = {"relocalisation",
+                                         "--teach-sequence",
+                                         (root / "teach").string(),
+                                         "--teach-out",
+                                         (root / "teach_out").string(),
+                                         "--sequence",
+                                         (root / "repeat").string(),
+                                         "--out",
+                                         (root / "repeat_out").string()};
+  const CliResult result = run(args);
+  ASSERT_EQ(result.code, 0) << result.err;
+  EXPECT_NE(result.out.find("VIMS_EVAL_RELOC relocalised=1 correct=1 entered=1 t_entered=1500.000 "
+                            "t_relocalised=1502.000 delay_s=2.00 error_at_relocalisation_m=0.050"),
+            std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("map_loops_correct=1 map_loops_wrong=0"), std::string::npos) << result.out;
+  const YAML::Node yaml = YAML::LoadFile((root / "repeat_out" / "relocalisation.yaml").string());
+  EXPECT_NEAR(yaml["ate_map_rmse_m"].as<double>(), 0.05, 1e-6);
+
+  // A summary without the relocalisation figures (an older run): an error naming the key.
+  std::ofstream(root / "repeat_out" / "summary.yaml") << "pose_graph: {keyframes: 3}\n";
+  const CliResult old = run(args);
+  EXPECT_EQ(old.code, 1);
+  EXPECT_NE(old.err.find("pose_graph.relocalised"), std::string::npos) << old.err;
+  EXPECT_EQ(run({"relocalisation", "--sequence", (root / "repeat").string()}).code, 2);
+}

@@ -158,3 +158,42 @@ TEST(LoopCsv, ReportsErrorsWithLineNumbers) {
   EXPECT_THROW(readLoopCsv("/nonexistent/loops.csv"), std::runtime_error);
   EXPECT_TRUE(parse(kHeader).empty());  // a run without any verification attempt
 }
+
+TEST(LoopScoring, ALoopIntoALoadedMapIsScoredAgainstTheMapsRunOrNotAtAll) {
+  const auto gt = groundTruth();
+  // The map's run: the same world, the same stamps, but 40 m further along x. A loop from the
+  // run's t = 50 into the map's t = 10 is right when it matches the map run's truth there.
+  std::vector<StampedPose> map_gt = gt;
+  for (auto& p : map_gt) p.p.x() += 40.0;
+  Eigen::Isometry3d T_w_match = Eigen::Isometry3d::Identity();
+  T_w_match.translation() = map_gt[100].p;
+  T_w_match.linear() = map_gt[100].q.toRotationMatrix();
+  Eigen::Isometry3d T_w_query = Eigen::Isometry3d::Identity();
+  T_w_query.translation() = gt[500].p;
+  T_w_query.linear() = gt[500].q.toRotationMatrix();
+  LoopRecord into_map = loop(50.0, 10.0, true, T_w_match.inverse() * T_w_query);
+  into_map.match_in_map = true;
+  const LoopScore with_map = scoreLoops({into_map}, gt, LoopScoringOptions{}, &map_gt);
+  EXPECT_EQ(with_map.correct, 1u);
+  EXPECT_EQ(with_map.wrong, 0u);
+  // Against the run's own truth it would be 40 m off; without the map's truth it is not scored.
+  const LoopScore without_map = scoreLoops({into_map}, gt, LoopScoringOptions{});
+  EXPECT_EQ(without_map.accepted_no_gt, 1u);
+  EXPECT_EQ(without_map.wrong, 0u);
+  into_map.match_in_map = false;
+  EXPECT_EQ(scoreLoops({into_map}, gt, LoopScoringOptions{}, &map_gt).wrong, 1u);
+}
+
+TEST(LoopCsv, ReadsTheOptionalMatchInMapColumn) {
+  EXPECT_FALSE(parse(std::string(kHeader) + "5,1,1,0,0,0,0,0,0,1,30,,,accepted\n").at(0).match_in_map);
+  const auto rows = parse(
+      "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,match_in_map\n"
+      "5,1,1,0,0,0,0,0,0,1,30,,,accepted,1\n5,2,1,0,0,0,0,0,0,1,30,,,accepted,0\n");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_TRUE(rows[0].match_in_map);
+  EXPECT_FALSE(rows[1].match_in_map);
+  expectParseError(
+      "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,match_in_map\n"
+      "5,1,1,0,0,0,0,0,0,1,30,,,accepted,maybe\n",
+      "match_in_map");
+}

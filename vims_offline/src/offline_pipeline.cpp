@@ -444,7 +444,13 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", yaw_rejected: " << pg.yaw_rejected
       << ", vehicle_field_taken_out: " << (pg.vehicle_field_taken_out ? "true" : "false")
       << ", vehicle_field_explained: " << pg.vehicle_field_explained << ", magnetic_submaps: " << pg.magnetic_submaps
-      << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false") << "}\n";
+      << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false");
+  if (pg.relocalised) {
+    char stamp[32];  // a stamp needs its milliseconds, beyond the stream's 10 significant digits
+    std::snprintf(stamp, sizeof(stamp), "%.3f", pg.relocalised_t);
+    out << ", relocalised_t: " << stamp;
+  }
+  out << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99
       << ", magnetometer_p50: " << s.magnetometer_ms_p50 << ", magnetometer_p99: " << s.magnetometer_ms_p99

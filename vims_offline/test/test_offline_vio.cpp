@@ -95,7 +95,7 @@ TEST(OfflineVio, PoseGraphModesWriteGlobalTrajectoryAndLoopLog) {
     std::getline(loops, header);
     EXPECT_EQ(header,
               "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,"
-              "sigma_yaw_deg");
+              "sigma_yaw_deg,match_in_map");
     long rows = 0;
     for (std::string line; std::getline(loops, line);) rows += line.empty() ? 0 : 1;
     EXPECT_EQ(rows, summary["pose_graph"]["loop_attempts"].as<long>()) << mode;

@@ -296,6 +296,7 @@ TEST(PoseGraphManager, RelocalisesASecondRunIntoTheFirstRunsFrame) {
   const PoseGraphManagerStats st = repeat.stats();
   ASSERT_TRUE(st.relocalised);
   EXPECT_TRUE(log.contains("relocalised into the loaded map"));
+  EXPECT_GT(st.relocalised_t, 0.0);
   EXPECT_GE(st.loops_accepted, 1u);
   // Loops into the loaded map are verified against run A's truth.
   for (const LoopAttempt& l : repeat.loopAttempts()) {

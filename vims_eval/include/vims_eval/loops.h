@@ -34,6 +34,9 @@ struct LoopRecord {
   double mag_distance = 0.0;
   double bow_score = 0.0;
   std::string stage;
+  /// The match is a keyframe of a loaded map (column match_in_map, 0 when absent): t_match is on
+  /// the map's run's clock and its truth is that run's.
+  bool match_in_map = false;
 };
 
 /// Parses a loop log. Throws std::runtime_error "<source>:<line>: <problem>" for a missing
@@ -72,8 +75,11 @@ struct LoopScore {
   double precision() const;
 };
 
+/// Scores each row against the ground truth: the query's pose from `gt`, the match's from `gt`
+/// too, or from `map_gt` (the loaded map's run) for a row whose match is in a loaded map. Without
+/// `map_gt` such rows have no ground truth (counted in accepted_no_gt, not scored).
 LoopScore scoreLoops(const std::vector<LoopRecord>& records, const std::vector<StampedPose>& gt,
-                     const LoopScoringOptions& options);
+                     const LoopScoringOptions& options, const std::vector<StampedPose>* map_gt = nullptr);
 
 /// How far the accepted loops' relative poses are from the ground truth's (the loop edges the
 /// pose graph got; wrong ones included): median and 90th percentile of the translation error

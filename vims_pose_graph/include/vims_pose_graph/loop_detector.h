@@ -44,6 +44,9 @@ struct LoopAttempt {
   double t_match = 0.0;
   PoseGraphNodeId query_node = 0;
   PoseGraphNodeId match_node = 0;
+  /// The match keyframe belongs to a loaded map (another run, with its own clock): t_match is
+  /// then that run's time.
+  bool match_in_map = false;
   bool accepted = false;
   /// PnP relative pose (query body in the match body frame) once PnP succeeded, else identity.
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();

@@ -77,6 +77,9 @@ struct PoseGraphManagerStats {
   size_t magnetic_submaps = 0;
   size_t optimisations = 0;
   bool relocalised = false;
+  /// t_query of the first accepted loop between the run and the loaded map (when relocalised):
+  /// from then on the run is expressed in the map's frame.
+  double relocalised_t = 0.0;
 };
 
 /// Why the manager optimised. kDeferredLoops: the solve from the earliest node of the loops that

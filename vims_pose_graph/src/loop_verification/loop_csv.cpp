@@ -18,7 +18,7 @@ std::string optional(double v, const char* format) {
 
 const char* loopCsvHeader() {
   return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,"
-         "sigma_yaw_deg";
+         "sigma_yaw_deg,match_in_map";
 }
 
 std::string formatLoopCsvRow(const LoopAttempt& a) {
@@ -31,7 +31,8 @@ std::string formatLoopCsvRow(const LoopAttempt& a) {
                 a.accepted ? 1 : 0, p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w(), a.inliers);
   return std::string(buf) + optional(a.mag_distance, "%.6e") + "," + optional(a.bow_score, "%.6f") + "," +
          toString(a.stage) + "," + optional(a.sigma[0], "%.6f") + "," + optional(a.sigma[1], "%.6f") + "," +
-         optional(a.sigma[2], "%.6f") + "," + optional(a.sigma[3] * 180.0 / M_PI, "%.6f");
+         optional(a.sigma[2], "%.6f") + "," + optional(a.sigma[3] * 180.0 / M_PI, "%.6f") + "," +
+         (a.match_in_map ? "1" : "0");
 }
 
 LoopCsvWriter::LoopCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {

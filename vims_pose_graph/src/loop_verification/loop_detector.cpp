@@ -654,6 +654,7 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     a.t_match = map.node(n).pose.t;
     a.query_node = query.node;
     a.match_node = n;
+    a.match_in_map = map.sessions()[map.node(n).session].loaded;
     return a;
   };
 

@@ -470,6 +470,7 @@ void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
     }
     if ((q_in_reference || m_in_reference) && map_loaded_ && !stats_.relocalised) {
       stats_.relocalised = true;
+      stats_.relocalised_t = a.t_query;
       logger_->info(kComponent,
                     VIMS_STR("relocalised into the loaded map at t=" << a.t_query << " (match t=" << a.t_match << ", "
                                                                      << a.inliers << " inliers)"));
