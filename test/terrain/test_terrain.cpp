@@ -11,8 +11,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <map>
-#include <sstream>
 #include <string>
 
 #include "vims_test/tool_runner.h"
@@ -23,22 +21,9 @@ namespace {
 
 using vims::test::CommandResult;
 using vims::test::runCommand;
+using vims::test::summaryValues;
 
 std::string tool(const std::string& name) { return std::string(VIMS_DEVEL_BIN_DIR) + "/" + name; }
-
-/// Key=value pairs of the summary line of `prefix` (e.g. "VIMS_EVAL label=vio") in `text`.
-std::map<std::string, std::string> summary(const std::string& text, const std::string& prefix) {
-  std::map<std::string, std::string> kv;
-  const auto pos = text.find(prefix);
-  if (pos == std::string::npos) return kv;
-  std::istringstream line(text.substr(pos, text.find('\n', pos) - pos));
-  std::string item;
-  while (line >> item) {
-    const auto eq = item.find('=');
-    if (eq != std::string::npos) kv[item.substr(0, eq)] = item.substr(eq + 1);
-  }
-  return kv;
-}
 
 struct RunFigures {
   CommandResult offline;
@@ -65,7 +50,7 @@ RunFigures runOn(const std::string& name, const std::string& label, const std::s
   EXPECT_EQ(f.offline.exit_code, 0) << f.offline.output;
   const CommandResult eval =
       runCommand(tool("vims_eval") + " run --sequence " + sequence.string() + " --out " + out.string());
-  const auto vio = summary(eval.output, "VIMS_EVAL label=vio");
+  const auto vio = summaryValues(eval.output, "VIMS_EVAL label=vio");
   if (vio.count("ate_se3_pct")) {
     f.vio_pct = std::stod(vio.at("ate_se3_pct"));
     f.vio_tilt_deg = std::stod(vio.at("tilt_rmse_deg"));
@@ -73,7 +58,7 @@ RunFigures runOn(const std::string& name, const std::string& label, const std::s
   } else {
     ADD_FAILURE() << "no VIO figures:\n" << eval.output;
   }
-  const auto global = summary(eval.output, "VIMS_EVAL label=global");
+  const auto global = summaryValues(eval.output, "VIMS_EVAL label=global");
   if (global.count("ate_se3_pct")) f.global_pct = std::stod(global.at("ate_se3_pct"));
   std::cout << "[terrain] " << name << " " << label << ": VIO " << f.vio_pct << " % of distance, rot " << f.vio_rot_deg
             << " deg, tilt " << f.vio_tilt_deg << " deg; global " << f.global_pct << " %" << std::endl;

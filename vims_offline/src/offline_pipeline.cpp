@@ -311,6 +311,15 @@ void OfflinePipeline::finishPoseGraph(OfflineSummary* summary) {
     }
     global_tum.flush();
   }
+  if (!options_.map_load.empty()) {
+    // map_global.tum: the loaded map's keyframes where the joint graph left them (their times on
+    // the teach run's clock), to see whether the repeat run moved the map.
+    TumWriter map_tum((fs::path(options_.out_dir) / "map_global.tum").string());
+    for (const KeyframePose& pose : pose_graph_->keyframePoses(true)) {
+      if (pose.loaded) map_tum.write(pose.t, pose.T_w_b.translation(), Eigen::Quaterniond(pose.T_w_b.linear()));
+    }
+    map_tum.flush();
+  }
   if (!options_.map_save.empty()) pose_graph_->saveMap(options_.map_save);
   summary->pose_graph = pose_graph_->stats();
   const std::vector<double> loop_correction_ms = pose_graph_->timings(pose_graph_solves_seen_).loop_correction_ms;

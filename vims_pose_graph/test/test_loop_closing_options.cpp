@@ -208,8 +208,36 @@ TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
 
 /// A small map with every kind of content: two sessions, submaps with random ORB-like
 /// descriptors, sequential / link / loop edges, yaw factors and magnetic submaps.
+/// A camera 0.25 m ahead of the body looking down, a little rotated: what a map records per session.
+Eigen::Isometry3d testCameraExtrinsic() {
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+  T_b_c.linear() = rotationFromYawPitchRoll(-M_PI / 2, 0.01, M_PI - 0.02);
+  T_b_c.translation() = Eigen::Vector3d(0.25, 0.01, -0.07);
+  return T_b_c;
+}
+
+/// The bytes of an older file version: `bytes` with `erase` bytes removed at `offset` (after
+/// each of `offsets`, back to front), the version set and the payload size and checksum redone.
+std::vector<uint8_t> olderVersion(std::vector<uint8_t> bytes, std::vector<size_t> offsets, size_t erase,
+                                  uint8_t version) {
+  std::sort(offsets.rbegin(), offsets.rend());
+  for (const size_t offset : offsets)
+    bytes.erase(bytes.begin() + static_cast<std::ptrdiff_t>(offset),
+                bytes.begin() + static_cast<std::ptrdiff_t>(offset + erase));
+  bytes[8] = version;
+  uint64_t payload = 0;
+  for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(bytes[12 + i]) << (8 * i);
+  payload -= erase * offsets.size();
+  for (int i = 0; i < 8; ++i) bytes[12 + static_cast<size_t>(i)] = static_cast<uint8_t>(payload >> (8 * i));
+  const uint64_t checksum = fnv1a64(bytes.data(), bytes.size() - 8);
+  for (int i = 0; i < 8; ++i)
+    bytes[bytes.size() - 8 + static_cast<size_t>(i)] = static_cast<uint8_t>(checksum >> (8 * i));
+  return bytes;
+}
+
 MultiScaleMap makeMap(const std::shared_ptr<const BinaryVocabulary>& vocabulary, int keypoints_per_keyframe = 40) {
   MultiScaleMap map(vocabulary, PoseGraphOptions(), 0.1);
+  map.setRunCameraExtrinsic(testCameraExtrinsic());
   std::mt19937_64 rng(7);
   const uint32_t s0 = map.addSession(0, false);
   const uint32_t s1 = map.addSession(1, false);
@@ -319,6 +347,8 @@ TEST(MapFile, RoundTripIsByteIdentical) {
     EXPECT_EQ(loaded.node(i).bow_image >= 0, map.node(i).bow_image >= 0);
     EXPECT_TRUE(loaded.sessions()[loaded.node(i).session].loaded);
   }
+  // Each session keeps the camera extrinsic of the run that made it, not the loading run's.
+  for (const MapSession& session : loaded.sessions()) EXPECT_TRUE(session.T_b_c.isApprox(testCameraExtrinsic(), 1e-15));
   EXPECT_EQ(loaded.loopEdges().size(), 1u);
   EXPECT_EQ(loaded.sequentialEdges().size(), map.sequentialEdges().size());
   EXPECT_EQ(loaded.yawMeasurements().size(), 2u);
@@ -369,20 +399,26 @@ TEST(MapFile, CorruptFilesGiveClearErrors) {
   EXPECT_NE(loadBytes(version).find("unsupported version 99"), std::string::npos);
   EXPECT_NE(loadBytes({}).find("test.vmap"), std::string::npos);
 
+  // A version-2 file (before the sessions' camera extrinsics) loads with the loading run's
+  // extrinsic. The two sessions' records (vio session, parent, then the extrinsic's 96 bytes)
+  // follow the header, the descriptor type and vocabulary path strings, two u64 and the count.
+  const size_t sessions_at = 20 + 4 + 3 + 4 + 9 + 8 + 8 + 4;
+  ASSERT_EQ(std::string(good.begin() + 24, good.begin() + 27), "orb");
+  const std::vector<uint8_t> v2 = olderVersion(good, {sessions_at + 8, sessions_at + 8 + 104}, 96, 2);
+  MultiScaleMap v2_map(vocabulary, PoseGraphOptions(), 0.0);
+  Eigen::Isometry3d loading_rig = Eigen::Isometry3d::Identity();
+  loading_rig.translation() = Eigen::Vector3d(0.3, 0.0, 0.0);
+  v2_map.setRunCameraExtrinsic(loading_rig);
+  EXPECT_EQ(errorOf([&] { v2_map.deserialize(v2, "v2.vmap"); }), "");
+  ASSERT_EQ(v2_map.sessions().size(), 2u);
+  EXPECT_TRUE(v2_map.sessions()[1].T_b_c.isApprox(loading_rig));
+  EXPECT_EQ(v2_map.numNodes(), 12u);
+
   // A version-1 file (before several coils: no coil index) still loads; its submaps are coil 0's.
   // The map's one submap is last: tied node, t, coil, signature, radius, members, then the checksum.
-  std::vector<uint8_t> v1 = good;
-  const size_t coil_offset = v1.size() - 8 - 4 - 8 - 24 - 4;
-  ASSERT_EQ(v1[coil_offset], 3);
-  v1.erase(v1.begin() + static_cast<std::ptrdiff_t>(coil_offset),
-           v1.begin() + static_cast<std::ptrdiff_t>(coil_offset + 4));
-  v1[8] = 1;
-  uint64_t payload = 0;
-  for (int i = 0; i < 8; ++i) payload |= static_cast<uint64_t>(v1[12 + i]) << (8 * i);
-  payload -= 4;
-  for (int i = 0; i < 8; ++i) v1[12 + static_cast<size_t>(i)] = static_cast<uint8_t>(payload >> (8 * i));
-  const uint64_t checksum = fnv1a64(v1.data(), v1.size() - 8);
-  for (int i = 0; i < 8; ++i) v1[v1.size() - 8 + static_cast<size_t>(i)] = static_cast<uint8_t>(checksum >> (8 * i));
+  const size_t coil_offset = v2.size() - 8 - 4 - 8 - 24 - 4;
+  ASSERT_EQ(v2[coil_offset], 3);
+  const std::vector<uint8_t> v1 = olderVersion(v2, {coil_offset}, 4, 1);
   MultiScaleMap old(vocabulary, PoseGraphOptions(), 0.0);
   EXPECT_EQ(errorOf([&] { old.deserialize(v1, "v1.vmap"); }), "");
   ASSERT_EQ(old.magneticSubmaps().size(), 1u);

@@ -381,6 +381,7 @@ TEST(LoopVerification, RatioTestRejectsAmbiguousMatchesThatWouldOtherwiseCloseAW
       describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &own_points);
   const double fx = world.camera().fx;
   MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+  map.setRunCameraExtrinsic(world.camera().T_b_c);  // the loaded session was made with this camera
   const uint32_t s = map.addSession(0, true);
   // Two identical copies 300 px apart: the first copy's keypoints come first, so without the
   // ratio test every tie goes to it and the matches are geometrically consistent.
@@ -436,6 +437,7 @@ TEST(LoopVerification, InlierMinimumRejectsASmallConsistentPatch) {
     other.normalized.push_back(patch.normalized[i]);
   }
   MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+  map.setRunCameraExtrinsic(world.camera().T_b_c);  // the loaded session was made with this camera
   const uint32_t s = map.addSession(0, true);
   map.addNode(0.0, s, T_w_other, T_w_other.translation(), 0.0, other, true);
   LoopQuery q;
@@ -590,6 +592,44 @@ TEST(PointMatching, RatioOneDisablesTheTestAndDuplicatesAreIgnored) {
   EXPECT_EQ(strict[1].point, 2u);
   const std::vector<PointMatch> off = matchPointsToKeypoints(p, s, 1.0, 80, 4.0);
   EXPECT_EQ(off.size(), 3u);
+}
+
+// A loaded map's keyframes were described by the teach run's camera: the loop's body-to-body
+// pose goes through that run's extrinsic, not this run's (a repeat vehicle's rig differs, or was
+// recalibrated). The same image described as if its camera sat 5 cm further forward on the body
+// gives a match body 5 cm further back, i.e. the query 5 cm ahead of it.
+TEST(LoopVerification, ALoadedKeyframeIsSeenThroughItsOwnRunsCameraExtrinsic) {
+  test::TestWorld world(kWorldSeed);
+  const Eigen::Isometry3d T_w_b = bodyPose(5.0, 5.0, 2.5, 10.0);
+  const KeyframeData kf = world.keyframe(10.0, 0, T_w_b, T_w_b);
+  KeyframeDescriber describer(FeatureExtractionOptions(), LoopDetectorOptions().harris_threshold, world.camera());
+  DescribedPoints points;
+  const VisualSubmap submap =
+      describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &points);
+  LoopQuery q;
+  q.node = 0;
+  q.t = 10.0;
+  q.T_odom_b = T_w_b;
+  q.bow = submap.bow;
+  q.points = points;
+  LoopDetectorOptions o = testLoopOptions();
+  o.covisibility_neighbours = 0;  // a single keyframe: no neighbours to confirm with
+  const auto relativePose = [&](const Eigen::Isometry3d& T_b_c_of_map) {
+    MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+    map.setRunCameraExtrinsic(T_b_c_of_map);
+    const uint32_t s = map.addSession(0, true);
+    map.addNode(0.0, s, T_w_b, T_w_b.translation(), 0.0, submap, true);
+    const VerificationResult r = LoopVerifier(o, world.camera()).verify(q, map, 0);
+    EXPECT_EQ(r.stage, LoopStage::kAccepted);
+    return r.T_match_query;
+  };
+  const Eigen::Isometry3d same = relativePose(world.camera().T_b_c);
+  EXPECT_LT(same.translation().norm(), 0.01);
+  Eigen::Isometry3d forward = world.camera().T_b_c;
+  forward.translation().x() += 0.05;
+  const Eigen::Isometry3d shifted = relativePose(forward);
+  EXPECT_NEAR(shifted.translation().x() - same.translation().x(), 0.05, 0.01);
+  EXPECT_LT(std::abs(shifted.translation().y() - same.translation().y()), 0.01);
 }
 
 }  // namespace

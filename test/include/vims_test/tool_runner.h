@@ -10,7 +10,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 
 namespace vims {
@@ -31,6 +33,21 @@ inline CommandResult runCommand(const std::string& command) {
   const int status = pclose(pipe.release());
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+/// The key=value pairs of the first line of `text` that starts with `prefix` (a tool's summary
+/// line, e.g. "VIMS_EVAL label=vio"); empty when there is none.
+inline std::map<std::string, std::string> summaryValues(const std::string& text, const std::string& prefix) {
+  std::map<std::string, std::string> kv;
+  const auto pos = text.find(prefix);
+  if (pos == std::string::npos) return kv;
+  std::istringstream line(text.substr(pos, text.find('\n', pos) - pos));
+  std::string item;
+  while (line >> item) {
+    const auto eq = item.find('=');
+    if (eq != std::string::npos) kv[item.substr(0, eq)] = item.substr(eq + 1);
+  }
+  return kv;
 }
 
 /// `name` in the folder of simulated test sequences (env VIMS_TEST_DATA, set by ctest through

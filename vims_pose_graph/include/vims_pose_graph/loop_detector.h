@@ -162,6 +162,9 @@ class LoopVerifier {
   LevelWindow levelWindow(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate) const;
 
  private:
+  /// The camera extrinsic of a map keyframe: its loaded session's (another run's rig), or this
+  /// run's.
+  const Eigen::Isometry3d& extrinsicOf(const MultiScaleMap& map, PoseGraphNodeId node) const;
   /// Checks the match's neighbours; returns the number of confirming neighbours.
   int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
                           const Eigen::Isometry3d& T_bm_odomq,
@@ -171,8 +174,7 @@ class LoopVerifier {
   CameraCalibration camera_;
   CameraModel camera_model_;  ///< built once: the consistency check projects every inlier
   FeatureExtractionOptions features_;
-  Eigen::Isometry3d T_b_c_;
-  Eigen::Isometry3d T_c_b_;
+  Eigen::Isometry3d T_b_c_;  ///< this run's camera extrinsic
 };
 
 /// What one detection did (for tests, diagnostics and rviz).

@@ -49,6 +49,10 @@ struct MapSession {
   PoseGraphNodeId first_node = 0;
   PoseGraphNodeId last_node = 0;
   uint32_t num_nodes = 0;
+  /// The camera extrinsic of the run that made the session (its keyframes' submaps are in that
+  /// camera): a repeat run's rig may be another, or recalibrated, and a loop against a loaded
+  /// keyframe must use the teach run's (docs/pose_graph.md, "Map file").
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
 };
 
 /// One keyframe of the map.
@@ -86,9 +90,10 @@ class MapFileWriter;
 
 class MultiScaleMap {
  public:
-  /// File format version written by save(). Version 1 (before several coils: its magnetic
-  /// submaps are the first coil's) is read too.
-  static constexpr uint32_t kFileVersion = 2;
+  /// File format version written by save(). Versions 1 (before several coils: its magnetic
+  /// submaps are the first coil's) and 2 (before the sessions' camera extrinsics: this run's is
+  /// assumed) are read too.
+  static constexpr uint32_t kFileVersion = 3;
 
   /// `vocabulary` may be null only for a map that never gets visual submaps. `declination_rad`
   /// is the site's magnetic declination (east positive). Throws std::invalid_argument for
@@ -97,6 +102,9 @@ class MultiScaleMap {
                 double declination_rad, LoggerPtr logger = nullptr);
 
   // ---- building
+  /// The camera extrinsic of this run's sessions (the sequence's T_b_c), set before the first
+  /// session; also what a loaded file of version 1 or 2, which does not record it, is assumed to have.
+  void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) { run_T_b_c_ = T_b_c; }
   /// A new session (a new chain); returns its index.
   uint32_t addSession(uint32_t vio_session, bool loaded);
   /// Appends a keyframe to `session` with its initial world pose (yaw + position; roll and
@@ -224,6 +232,7 @@ class MultiScaleMap {
   std::vector<PoseGraphNodeId> image_to_node_;
   std::vector<MapNode> nodes_;
   std::vector<MapSession> sessions_;
+  Eigen::Isometry3d run_T_b_c_ = Eigen::Isometry3d::Identity();
   std::vector<uint32_t> session_parent_;  ///< union-find over sessions; a root is its component's oldest session
   std::vector<uint32_t> session_yaw_count_;
   std::vector<SequentialEdge> sequential_edges_;

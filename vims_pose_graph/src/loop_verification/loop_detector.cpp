@@ -306,15 +306,15 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
 
 LoopVerifier::LoopVerifier(const LoopDetectorOptions& options, const CameraCalibration& camera,
                            const FeatureExtractionOptions& features)
-    : options_(options),
-      camera_(camera),
-      camera_model_(camera),
-      features_(features),
-      T_b_c_(camera.T_b_c),
-      T_c_b_(camera.T_b_c.inverse()) {
+    : options_(options), camera_(camera), camera_model_(camera), features_(features), T_b_c_(camera.T_b_c) {
   options_.validate();
   if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || camera.width <= 0 || camera.height <= 0)
     throw std::invalid_argument("LoopVerifier: invalid camera calibration");
+}
+
+const Eigen::Isometry3d& LoopVerifier::extrinsicOf(const MultiScaleMap& map, PoseGraphNodeId node) const {
+  const MapSession& session = map.sessions()[map.node(node).session];
+  return session.loaded ? session.T_b_c : T_b_c_;
 }
 
 LevelWindow LoopVerifier::levelWindow(const LoopQuery& query, const MultiScaleMap& map,
@@ -326,7 +326,7 @@ LevelWindow LoopVerifier::levelWindow(const LoopQuery& query, const MultiScaleMa
   const double depth_query = medianQueryDepth(query.points, query.T_odom_b * T_b_c_);
   // Same place, same seabed: the candidate camera is as much farther from it as it is higher.
   const double height_query = (map.node(query.node).pose.T_w_b() * T_b_c_).translation().z();
-  const double height_candidate = (map.node(candidate).pose.T_w_b() * T_b_c_).translation().z();
+  const double height_candidate = (map.node(candidate).pose.T_w_b() * extrinsicOf(map, candidate)).translation().z();
   const double shift =
       altitudeLevelShift(depth_query, depth_query + (height_candidate - height_query), features_.orb_scale_factor);
   if (!std::isfinite(shift)) return around;
@@ -338,6 +338,8 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   VerificationResult r;
   const MapNode& cand = map.node(candidate);
   const VisualSubmap& sub = cand.visual;
+  // The candidate's submap is in its own run's camera (a loaded map's rig may differ from this run's).
+  const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
   const LevelWindow levels = levelWindow(query, map, candidate);
   // The query's seabed corners only across a scale change (their interpolated depths are less
   // exact than the VIO's landmarks; at about the same altitude the tracked points suffice).
@@ -375,7 +377,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   // it is only a necessary condition, and a VIO tilt error that P3P would absorb adds to the
   // residuals here (docs/pose_graph.md, "Known-vertical consensus").
   if (options_.pnp_vertical_check_threshold_scale > 0.0) {
-    const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_b_c_).linear();
+    const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_bm_cm).linear();
     const int samples = std::min(
         options_.pnp_iterations,
         ransacIterationsToReject(matches.size(), options_.pnp_min_inliers, options_.pnp_confidence, /*sample_size=*/2));
@@ -454,7 +456,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   // against the VIO is off in position by ~depth x tilt too.
   if (options_.pnp_max_tilt_error_deg > 0.0) {
     const Eigen::Vector3d up_pnp = R_cm_odomq * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d up_vio = (cand.pose.T_odom_b * T_b_c_).linear().transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_vio = (cand.pose.T_odom_b * T_bm_cm).linear().transpose() * Eigen::Vector3d::UnitZ();
     r.tilt_error_deg = std::acos(std::clamp(up_pnp.dot(up_vio), -1.0, 1.0)) * 180.0 / M_PI;
     if (r.tilt_error_deg > options_.pnp_max_tilt_error_deg) {
       r.stage = LoopStage::kPnp;
@@ -473,7 +475,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     r.stage = LoopStage::kPnp;
     return r;
   }
-  const Eigen::Isometry3d T_bm_odomq = T_b_c_ * T_cm_odomq;
+  const Eigen::Isometry3d T_bm_odomq = T_bm_cm * T_cm_odomq;
   r.T_match_query = T_bm_odomq * query.T_odom_b;
   r.has_pose = true;
   if (options_.pnp_known_vertical_refinement) {
@@ -485,7 +487,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
       geometry.normalized_match.push_back(sub.normalized[keypoint]);
     }
     r.refined =
-        refineLoopMeasurement(geometry, r.T_match_query, query.T_odom_b, T_b_c_, cand.pose.pitch, cand.pose.roll);
+        refineLoopMeasurement(geometry, r.T_match_query, query.T_odom_b, T_bm_cm, cand.pose.pitch, cand.pose.roll);
     // The covisibility check below keeps the PnP pose: it tests the match, not the edge.
     if (r.refined) r.T_match_query = r.refined->T_match_query;
   }
@@ -531,7 +533,8 @@ int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const Multi
     const MapNode& n = map.node(neighbour);
     // The neighbour's pose relative to the match from the VIO (locally accurate), chained with
     // the PnP pose: where the neighbour camera must see each inlier if the loop is right.
-    const Eigen::Isometry3d T_cn_odomq = T_c_b_ * n.pose.T_odom_b.inverse() * m.pose.T_odom_b * T_bm_odomq;
+    const Eigen::Isometry3d T_cn_odomq =
+        extrinsicOf(map, neighbour).inverse() * n.pose.T_odom_b.inverse() * m.pose.T_odom_b * T_bm_odomq;
     int projected = 0;
     int confirmed = 0;
     for (const auto& [point, keypoint] : inliers) {

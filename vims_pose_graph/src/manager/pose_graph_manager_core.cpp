@@ -49,6 +49,7 @@ PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& option
       vehicle_field_(options.vehicle_field),
       scheduler_(options, logger_, map_, run_nodes_) {
   options_.validate();
+  map_.setRunCameraExtrinsic(sequence.camera.T_b_c);
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
                              options_.loop.submap_corner_max_level);
   describer_.setDenseCornersPerLevel(options_.loop.submap_dense_corners_per_level);

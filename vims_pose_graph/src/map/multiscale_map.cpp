@@ -55,6 +55,7 @@ uint32_t MultiScaleMap::addSession(uint32_t vio_session, bool loaded) {
   MapSession s;
   s.vio_session = vio_session;
   s.loaded = loaded;
+  s.T_b_c = run_T_b_c_;  // a loaded session's is then set from its file
   sessions_.push_back(s);
   session_parent_.push_back(static_cast<uint32_t>(sessions_.size() - 1));
   session_yaw_count_.push_back(0);

@@ -213,6 +213,7 @@ void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary
   for (uint32_t s = 0; s < sessions_.size(); ++s) {
     w.u32(sessions_[s].vio_session);
     w.u32(session_parent_[s]);
+    w.pose(sessions_[s].T_b_c);
   }
   w.u32(static_cast<uint32_t>(nodes_.size()));
   for (const MapNode& n : nodes_) {
@@ -472,14 +473,17 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   // Parse into a fresh map first: nothing of this map changes unless the whole file is valid.
   MultiScaleMap m(vocabulary_, graph_options_, 0.0, logger_);
   m.north_enu_ = north_enu_;
-  const uint32_t num_sessions = r.count(8, "sessions");
+  m.run_T_b_c_ = run_T_b_c_;  // the camera of a file that does not record its own (version < 3)
+  const uint32_t num_sessions = r.count(8 + (version >= 3 ? 96 : 0), "sessions");
   std::vector<uint32_t> parents(num_sessions);
   for (uint32_t s = 0; s < num_sessions; ++s) {
     const uint32_t vio = r.u32();
     parents[s] = r.u32();
     if (parents[s] >= num_sessions || parents[s] > s) r.fail("corrupt: session parent out of range");
     m.addSession(vio, true);
+    if (version >= 3) m.sessions_.back().T_b_c = r.pose("session camera extrinsic");
   }
+
   const uint32_t num_nodes = r.count(8 + 4 + 96 + 24 + 8 + 1 + 8, "keyframes");
   const size_t num_words = vocabulary_ ? vocabulary_->numWords() : 0;
   for (uint32_t i = 0; i < num_nodes; ++i) {
@@ -533,6 +537,10 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   logger_->info(kComponent, VIMS_STR("loaded map '" << source << "': " << nodes_.size() << " keyframes, "
                                                     << sessions_.size() << " sessions, " << loop_edges_.size()
                                                     << " loops, " << magnetic_submaps_.size() << " magnetic submaps"));
+  if (version < 3)
+    logger_->warn(kComponent,
+                  VIMS_STR("map file '" << source << "' (version " << version
+                                        << ") does not record its camera extrinsic: this run's is assumed"));
 }
 
 }  // namespace vims
