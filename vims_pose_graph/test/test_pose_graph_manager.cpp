@@ -318,6 +318,30 @@ TEST(PoseGraphManager, RelocalisesASecondRunIntoTheFirstRunsFrame) {
     if (k.loaded)
       map_shift = std::max(map_shift, (k.T_w_b.translation() - (T_map_w * truthAt(a, k.t)).translation()).norm());
   EXPECT_LT(map_shift, 0.2);
+
+  // Held (hold_loaded_map): the loaded keyframes stay exactly where the map file had them, and
+  // run B is still placed in the map's frame.
+  std::vector<KeyframePose> saved;
+  {
+    PoseGraphManager reloaded(o, test::testSequence(), vocabularyFor(o));
+    reloaded.loadMap(path);
+    saved = reloaded.keyframePoses(true);
+  }
+  PoseGraphManagerOptions held_options = o;
+  held_options.graph.hold_loaded_map = true;
+  PoseGraphManager held(held_options, test::testSequence(), vocabularyFor(held_options));
+  held.loadMap(path);
+  feed(held, b);
+  ASSERT_TRUE(held.stats().relocalised);
+  const auto held_poses = held.keyframePoses(true);
+  size_t compared = 0;
+  for (size_t i = 0; i < held_poses.size() && i < saved.size(); ++i) {
+    if (!held_poses[i].loaded) continue;
+    EXPECT_TRUE(held_poses[i].T_w_b.isApprox(saved[i].T_w_b, 1e-12)) << "loaded keyframe " << i << " moved";
+    ++compared;
+  }
+  EXPECT_EQ(compared, saved.size());
+  EXPECT_LT(maxPositionError(held.keyframePoses(), b, T_map_w), 0.2);
   std::remove(path.c_str());
 }
 
