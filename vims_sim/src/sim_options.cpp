@@ -317,6 +317,8 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.name = value;
     } else if (flag == "--world-seed") {
       options.world_seed = parseSeed(flag, value);
+    } else if (flag == "--rig-seed") {
+      options.rig_seed = parseSeed(flag, value);
     } else if (flag == "--static-start") {
       options.static_start = parseDouble(flag, value);
     } else if (flag == "--camera-delay") {
@@ -440,12 +442,14 @@ Usage:
 Required:
   --scenario tank|field    tank: ~20 m x 20 m, ~130 m per 750 s lap; field: ~80 m x 60 m, long transits
   --duration SECONDS       sequence length
-  --seed N                 trajectory seed: path variation, rig calibration, all sensor noise
+  --seed N                 trajectory seed: path variation, all sensor noise (and the rig, unless --rig-seed)
   --out DIR                output directory (created if missing)
 
 Options:
   --name NAME              sequence name (default: basename of DIR)
   --world-seed M           seabed texture, coil position, site geomagnetic field (default: N)
+  --rig-seed R             the vehicle's rig calibration and magnetic make-up (default: N); a repeat
+                           mission of the same vehicle: the teach run's seed
   --static-start SECONDS   initial rest phase (default 3)
   --camera-delay SECONDS   image header.stamp = true exposure time + delay (default 0, |d| <= 0.5)
   --camera-extrinsic-error-deg DEG  the YAML's T_b_c is turned by DEG (0-10) about a seeded axis

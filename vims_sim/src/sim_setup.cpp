@@ -29,7 +29,7 @@ enum : uint64_t {
   kStreamThrusters = 0x7412,
   kStreamOtherCoilSites = 0xc02a,    // world seed: which point at the spacing holds each further coil
   kStreamOtherCoilPhases = 0xc02f,   // trajectory seed: the further coils' free-running phases
-  kStreamMagnetometerIron = 0x1e0f,  // the vehicle's iron belongs to the rig: trajectory seed
+  kStreamMagnetometerIron = 0x1e0f,  // the vehicle's iron belongs to the rig: rig seed
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -225,8 +225,8 @@ SimSetup buildSimSetup(const SimOptions& options) {
   setup.magnetometer = MagnetometerParams();
   setup.magnetometer.rate_hz = options.rates.magnetometer;
 
-  // --- The rig: calibrated once per vehicle set-up, so it follows the trajectory seed.
-  Rng rig(deriveSeed(options.seed, kStreamRig));
+  // --- The rig: calibrated once per vehicle set-up (the rig seed, by default the trajectory's).
+  Rng rig(deriveSeed(options.rigSeed(), kStreamRig));
   SequenceConfig& cfg = setup.config;
   cfg.camera.model = "pinhole";
   cfg.camera.width = 640;
@@ -299,7 +299,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
 
   // Pressure port: its own stream, so adding the sensor changes no other calibration.
   if (options.pressure.enabled) {
-    Rng port_rng(deriveSeed(options.seed, kStreamPressureRig));
+    Rng port_rng(deriveSeed(options.rigSeed(), kStreamPressureRig));
     setup.pressure.rate_hz = options.pressure.rate_hz;
     setup.pressure.spike_fraction = options.pressure.spike_fraction;
     PressureCalibration pressure;
@@ -329,6 +329,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
   truth.name = options.sequenceName();
   truth.trajectory_seed = options.seed;
   truth.world_seed = options.worldSeed();
+  truth.rig_seed = options.rigSeed();
   truth.start_time = options.start_time;
   truth.duration = options.duration;
   truth.static_start = options.static_start;
@@ -363,11 +364,11 @@ SimSetup buildSimSetup(const SimOptions& options) {
     th.hard_iron_tesla = options.thrusters.hard_iron_ut * 1e-6;
     th.broadband_std_tesla = options.thrusters.broadband_nt * 1e-9;
     // The motors' placement relative to the magnetometer belongs to the vehicle: the rig's seed.
-    truth.thrusters = seededThrusterInterference(th, deriveSeed(options.seed, kStreamThrusters));
+    truth.thrusters = seededThrusterInterference(th, deriveSeed(options.rigSeed(), kStreamThrusters));
   }
   if (options.mag_hard_iron_ut > 0.0 || options.mag_soft_iron_pct > 0.0) {
     truth.magnetometer_iron = seededMagnetometerIron(options.mag_hard_iron_ut, options.mag_soft_iron_pct,
-                                                     deriveSeed(options.seed, kStreamMagnetometerIron));
+                                                     deriveSeed(options.rigSeed(), kStreamMagnetometerIron));
   }
   if (options.magnetic_anomaly_ut > 0.0) {
     // Under the vehicle's mid-mission position, so the mission crosses it; buried half its width

@@ -237,6 +237,7 @@ std::string SimTruth::toYaml() const {
      << "name: " << quoted(name) << "\n"
      << "trajectory_seed: " << trajectory_seed << "\n"
      << "world_seed: " << world_seed << "\n"
+     << "rig_seed: " << rig_seed << "\n"
      << "start_time: " << num(start_time) << "\n"
      << "duration: " << num(duration) << "\n"
      << "static_start: " << num(static_start) << "\n"
@@ -324,29 +325,14 @@ void SimTruth::save(const std::string& path) const {
 
 SimTruth SimTruth::load(const std::string& path) {
   const ConfigReader root = ConfigReader::fromFile(path);
-  root.rejectUnknownKeys({"generator",
-                          "scenario",
-                          "name",
-                          "trajectory_seed",
-                          "world_seed",
-                          "start_time",
-                          "duration",
-                          "static_start",
-                          "travel_m",
-                          "camera_time_delay",
-                          "coil",
-                          "other_coils",
-                          "geomagnetic",
-                          "imu_initial_bias",
-                          "dropouts",
-                          "terrain",
-                          "pressure",
-                          "depth_hold_z",
-                          "hold_plane_only",
-                          "camera_extrinsic_error",
-                          "magnetic_anomaly",
-                          "thrusters",
-                          "magnetometer_iron"});
+  root.rejectUnknownKeys({"generator",        "scenario",          "name",
+                          "trajectory_seed",  "world_seed",        "rig_seed",
+                          "start_time",       "duration",          "static_start",
+                          "travel_m",         "camera_time_delay", "coil",
+                          "other_coils",      "geomagnetic",       "imu_initial_bias",
+                          "dropouts",         "terrain",           "pressure",
+                          "depth_hold_z",     "hold_plane_only",   "camera_extrinsic_error",
+                          "magnetic_anomaly", "thrusters",         "magnetometer_iron"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -354,6 +340,7 @@ SimTruth SimTruth::load(const std::string& path) {
   t.name = root.get<std::string>("name");
   t.trajectory_seed = root.get<uint64_t>("trajectory_seed");
   t.world_seed = root.get<uint64_t>("world_seed");
+  t.rig_seed = root.has("rig_seed") ? root.get<uint64_t>("rig_seed") : t.trajectory_seed;
   t.start_time = root.get<double>("start_time");
   t.duration = root.get<double>("duration");
   requirePositive(root, "duration", t.duration);

@@ -62,6 +62,7 @@ TEST(SimTruth, SaveLoadRoundTripIsExact) {
   EXPECT_EQ(loaded.name, "seq_a");
   EXPECT_EQ(loaded.trajectory_seed, 12345678901234ULL);
   EXPECT_EQ(loaded.world_seed, 77u);
+  EXPECT_EQ(loaded.rig_seed, 12345678901234ULL);  // the trajectory's by default
   EXPECT_EQ(loaded.duration, 42.5);
   EXPECT_EQ(loaded.start_time, truth.start_time);
   EXPECT_EQ(loaded.camera_time_delay, 0.0321);
@@ -226,6 +227,16 @@ TEST(SimSetup, WorldSeedFixesTheSiteAndSeedFixesTheRig) {
   EXPECT_GT((sa.truth.coil.position_w - sc.truth.coil.position_w).norm(), 0.1);
   EXPECT_GT((sa.config.camera.T_b_c.matrix() - sb.config.camera.T_b_c.matrix()).norm(), 1e-4);
   EXPECT_NE(sa.truth.gyro_bias, sb.truth.gyro_bias);
+  // A repeat mission of the same vehicle (--rig-seed 1): b's path and noise with a's rig.
+  SimOptions repeat = b;
+  repeat.rig_seed = 1;
+  const SimSetup sr = buildSimSetup(repeat);
+  EXPECT_TRUE(sr.config.camera.T_b_c.isApprox(sa.config.camera.T_b_c, 0.0));
+  EXPECT_EQ(sr.config.camera.fx, sa.config.camera.fx);
+  EXPECT_TRUE(sr.config.magnetometer.T_b_m.isApprox(sa.config.magnetometer.T_b_m, 0.0));
+  EXPECT_TRUE(sr.config.sonar.T_b_s.isApprox(sa.config.sonar.T_b_s, 0.0));
+  EXPECT_EQ(sr.truth.gyro_bias, sb.truth.gyro_bias);  // the IMU's turn-on bias is the run's
+  EXPECT_EQ(sr.truth.rig_seed, 1u);
 
   for (const SimSetup* s : {&sa, &sb, &sc}) {
     // Site: ~49 uT, ~46 deg down, a few degrees of declination; coil on the seabed in the area.

@@ -43,8 +43,12 @@ struct PressureOptions {
 struct SimOptions {
   Scenario scenario = Scenario::kTank;
   double duration = 0.0;               ///< [s]
-  uint64_t seed = 0;                   ///< trajectory seed: path, rig calibration, all noise
+  uint64_t seed = 0;                   ///< trajectory seed: path, all noise (and the rig, unless rig_seed)
   std::optional<uint64_t> world_seed;  ///< seabed, coil position, site field; default = seed
+  /// The vehicle's rig: camera, sonar, magnetometer and pressure calibration, the thrusters' and
+  /// the hull's magnetic make-up; default = seed. A repeat mission of the same vehicle gives the
+  /// teach run's seed here.
+  std::optional<uint64_t> rig_seed;
   std::string out_dir;
   std::string name;           ///< default: basename of out_dir
   double static_start = 3.0;  ///< [s]
@@ -108,6 +112,7 @@ struct SimOptions {
   } rates;
 
   uint64_t worldSeed() const { return world_seed ? *world_seed : seed; }
+  uint64_t rigSeed() const { return rig_seed ? *rig_seed : seed; }
   /// `name`, or the basename of out_dir when empty.
   std::string sequenceName() const;
   /// Throws std::invalid_argument naming the offending option (as its command-line flag).

@@ -67,6 +67,7 @@ struct SimTruth {
   std::string name;                ///< sequence name
   uint64_t trajectory_seed = 0;    ///< fixes the path, the rig calibration and all noise
   uint64_t world_seed = 0;         ///< fixes the seabed texture, the coil position and the site's field
+  uint64_t rig_seed = 0;           ///< fixes the rig calibration (absent in older files: the trajectory seed)
   double start_time = 0.0;         ///< bag-clock time of the sequence start [s]
   double duration = 0.0;           ///< [s]
   double static_start = 0.0;       ///< [s] the vehicle is at rest from the start for this long
