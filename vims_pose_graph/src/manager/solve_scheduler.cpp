@@ -119,9 +119,8 @@ SolvePlan SolveScheduler::planSolve(OptimisationTrigger trigger) const {
   } else {
     first_free = window_start;
   }
-  // A loaded map is node 0 onwards (loaded before the run's first keyframe): held, it is the
-  // fixed reference the run is placed in.
-  // The run's keyframes follow it, so its first keyframe's id is the map's size (0 without one).
+  // A loaded map is node 0 onwards (loaded before the run's first keyframe), so the run's first
+  // keyframe id is the map's size: held, the map is the fixed reference the run is placed in.
   if (g.hold_loaded_map && !run_nodes_.empty()) first_free = std::max(first_free, run_nodes_.front());
   // The convex Huber stage is considered for loops not in any solve yet.
   LoopEdgeId first_new_loop = 0;  // no new loops: past the newest id
