@@ -18,8 +18,8 @@ namespace {
 
 const char* kUsage =
     "usage: vims_offline --sequence DIR --out OUT [--config FILE]... [--mode MODE] [--map-load FILE]\n"
-    "                    [--map-save FILE] [--package-root DIR] [--threads 1|2] [--vio-only]\n"
-    "                    [--quiet]\n"
+    "                    [--map-mode MODE] [--map-save FILE] [--package-root DIR] [--threads 1|2]\n"
+    "                    [--vio-only] [--quiet]\n"
     "       vims_offline --list-options\n"
     "  --sequence DIR      sequence directory (<seq>.bag + <seq>.yaml, see docs/sensor-contract.md)\n"
     "  --out OUT           output directory (created); summary.yaml and the module outputs go here\n"
@@ -29,6 +29,10 @@ const char* kUsage =
     "  --mode MODE         full (default), vi_slam, no_sonar, no_alter, no_orb or no_geom: the paper's\n"
     "                      ablation variants (docs/offline_outputs.md)\n"
     "  --map-load FILE     relocalise into a map saved by an earlier run (teach and repeat)\n"
+    "  --map-mode MODE     what the run does with the loaded map: mapping (default: optimised with\n"
+    "                      the run, which adds its places), extend (held fixed, the run adds its\n"
+    "                      places) or localisation (held fixed, the run adds nothing; --map-save\n"
+    "                      then writes the loaded map); sets pose_graph.map_mode\n"
     "  --map-save FILE     save the map at the end\n"
     "  --package-root DIR  root for relative vocabulary paths (default: the source tree it was built from)\n"
     "  --threads 1|2       2 (default): the feature tracker and the pose graph run on their own\n"
@@ -80,6 +84,10 @@ int main(int argc, char** argv) {
       }
     } else if (arg == "--map-load") {
       if (!value(&options.map_load)) return usageError("--map-load needs a file");
+    } else if (arg == "--map-mode") {
+      if (!value(&options.map_mode)) return usageError("--map-mode needs mapping, extend or localisation");
+      if (options.map_mode != "mapping" && options.map_mode != "extend" && options.map_mode != "localisation")
+        return usageError("unknown map mode '" + options.map_mode + "' (mapping, extend or localisation)");
     } else if (arg == "--map-save") {
       if (!value(&options.map_save)) return usageError("--map-save needs a file");
     } else if (arg == "--package-root") {

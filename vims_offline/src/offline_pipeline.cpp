@@ -131,6 +131,10 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
     logger_->warn("offline", paths_.yaml + ": ignoring key '" + key + "' (not in the sensor contract)");
   config_ = SystemConfig::load(options_.config_paths, sequence_);
   config_.applyMode(options_.mode);
+  if (!options_.map_mode.empty()) config_.pose_graph.map_mode = mapModeFromString(options_.map_mode);
+  if (config_.pose_graph.map_mode != MapMode::kMapping && options_.map_load.empty())
+    throw ConfigError("pose_graph.map_mode: " + toString(config_.pose_graph.map_mode) +
+                      " uses a loaded map: give --map-load (or map_mode: mapping)");
   // The offline runner must be deterministic: the pose graph works inline in the feed calls.
   config_.pose_graph.synchronous = true;
   std::error_code ec;
@@ -447,10 +451,10 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   if (!s.vio_extrinsic.empty()) out << "vio_extrinsic: \"" << s.vio_extrinsic << "\"\n";
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
-      << ", culled_submaps: " << pg.culled_submaps << ", sessions: " << pg.sessions
-      << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
-      << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
-      << ", yaw_rejected: " << pg.yaw_rejected
+      << ", culled_submaps: " << pg.culled_submaps << ", localisation_keyframes: " << pg.localisation_keyframes
+      << ", sessions: " << pg.sessions << ", loop_queries: " << pg.loop_queries
+      << ", loop_attempts: " << pg.loop_attempts << ", loops_accepted: " << pg.loops_accepted
+      << ", yaw_factors: " << pg.yaw_factors << ", yaw_rejected: " << pg.yaw_rejected
       << ", vehicle_field_taken_out: " << (pg.vehicle_field_taken_out ? "true" : "false")
       << ", vehicle_field_explained: " << pg.vehicle_field_explained << ", magnetic_submaps: " << pg.magnetic_submaps
       << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false");
@@ -459,6 +463,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
     std::snprintf(stamp, sizeof(stamp), "%.3f", pg.relocalised_t);
     out << ", relocalised_t: " << stamp;
   }
+  out << ", map_mode: " << toString(config_.pose_graph.map_mode) << ", loops_into_map: " << pg.loops_into_map;
   out << "}\n";
   out << "latency_ms: {frontend_p50: " << s.frontend_ms_p50 << ", frontend_p99: " << s.frontend_ms_p99
       << ", backend_p50: " << s.backend_ms_p50 << ", backend_p99: " << s.backend_ms_p99

@@ -43,6 +43,7 @@ struct OfflineOptions {
   std::string mode = "full";
   std::string map_load;  ///< a saved map to relocalise into (teach and repeat); empty: none
   std::string map_save;  ///< where to save the map at the end; empty: not saved
+  std::string map_mode;  ///< overrides pose_graph.map_mode (mapping, extend, localisation); empty: the configuration's
   /// Root that relative vocabulary paths of the configuration are resolved against.
   std::string package_root;
   /// 2: the feature tracker runs on its own thread, one frame ahead of the estimator (the

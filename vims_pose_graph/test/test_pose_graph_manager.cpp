@@ -1,6 +1,6 @@
 /// PoseGraphManager end to end on rendered runs over one synthetic seabed with a coil: loop
-/// closing with drift correction, map save/load, relocalisation of a second run, modes,
-/// asynchronous mode, magnetometer dropout and bad keyframes.
+/// closing with drift correction, map save/load, modes, asynchronous mode, magnetometer dropout
+/// and bad keyframes (a second run in the first one's map: test_teach_and_repeat.cpp).
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,179 +10,13 @@
 #include <map>
 #include <set>
 
-#include "loop_test_world.h"
+#include "manager_test_runs.h"
 #include "vims_pose_graph/loop_csv.h"
-#include "vims_pose_graph/pose_graph_manager.h"
 
 namespace vims {
 namespace {
 
-using test::bodyPose;
-using test::kDeg;
-
-constexpr uint64_t kWorldSeed = 777;
-
-sim::CoilDipole testCoil() {
-  sim::CoilDipole coil;
-  coil.position_w = Eigen::Vector3d(3.0, 0.3, 0.0);
-  return coil;
-}
-
-/// The geomagnetic field of the site in ENU (declination 0).
-const Eigen::Vector3d kGeomagneticEnu(0.0, 2.2e-5, -4.1e-5);
-
-/// A run: the true body poses, the VIO's keyframes (drifting, in its own frame), and the
-/// magnetometer outputs along the way.
-struct SimRun {
-  std::vector<Eigen::Isometry3d> T_w_b;
-  std::vector<KeyframeData> keyframes;
-  std::vector<SignatureWindow> signatures;
-  std::vector<std::pair<double, Eigen::Vector3d>> geomagnetic;  ///< (t, field in body)
-};
-
-/// Lawnmower pass A: east along y = 0, turn, west along y = 0.6 (heading 180: the revisits see
-/// the seabed rotated by 180 deg).
-std::vector<Eigen::Isometry3d> trajectoryA() {
-  std::vector<Eigen::Isometry3d> p;
-  for (int i = 0; i < 16; ++i) p.push_back(bodyPose(0.4 * i, 0.0, 2.5 + 0.1 * std::sin(0.5 * i), 0.0, 1.0, -0.5));
-  p.push_back(bodyPose(6.2, 0.25, 2.5, 90.0));
-  for (int i = 0; i < 16; ++i)
-    p.push_back(bodyPose(5.8 - 0.4 * i, 0.6, 2.6 + 0.1 * std::cos(0.4 * i), 180.0, -0.8, 1.0));
-  return p;
-}
-
-/// SimRun B over the same area on another path: diagonally north-east, then back west.
-std::vector<Eigen::Isometry3d> trajectoryB() {
-  std::vector<Eigen::Isometry3d> p;
-  for (int i = 0; i < 13; ++i) p.push_back(bodyPose(0.5 + 0.38 * i, -0.4 + 0.13 * i, 2.7, 19.0, 0.5, 0.5));
-  for (int i = 0; i < 12; ++i) p.push_back(bodyPose(5.2 - 0.4 * i, 1.0 - 0.05 * i, 2.6, 185.0, -0.5, 0.0));
-  return p;
-}
-
-/// Builds a run: keyframes `dt` apart; the VIO frame is `T_odom_w` and the VIO drifts by
-/// yaw_drift_deg_per_m and a scale error; signatures every 0.4 s and geomagnetic samples every
-/// 0.1 s from the true poses (interpolated).
-SimRun makeRun(const test::TestWorld& world, const std::vector<Eigen::Isometry3d>& poses, double dt,
-               const Eigen::Isometry3d& T_odom_w, double yaw_drift_deg_per_m, double scale, double t0 = 100.0) {
-  SimRun run;
-  run.T_w_b = poses;
-  Eigen::Isometry3d T_odom_b = T_odom_w * poses.front();
-  for (size_t i = 0; i < poses.size(); ++i) {
-    if (i > 0) {
-      // The VIO integrates the true relative motion with a scale error and a yaw drift.
-      Eigen::Isometry3d rel = poses[i - 1].inverse() * poses[i];
-      const double d = rel.translation().norm();
-      rel.translation() *= scale;
-      rel.linear() = rotationZ(yaw_drift_deg_per_m * kDeg * d) * rel.linear();
-      T_odom_b = T_odom_b * rel;
-    }
-    run.keyframes.push_back(world.keyframe(t0 + dt * i, 0, poses[i], T_odom_b));
-  }
-  const sim::CoilDipole coil = testCoil();
-  const double t_end = t0 + dt * (poses.size() - 1);
-  auto poseAt = [&](double t) {
-    const double f = std::clamp((t - t0) / dt, 0.0, static_cast<double>(poses.size() - 1));
-    const size_t i = std::min(static_cast<size_t>(f), poses.size() - 2);
-    const double a = f - i;
-    Eigen::Isometry3d T = poses[a < 0.5 ? i : i + 1];
-    T.translation() = (1 - a) * poses[i].translation() + a * poses[i + 1].translation();
-    return T;
-  };
-  for (double t = t0; t <= t_end + 1e-9; t += 0.4)
-    run.signatures.push_back(test::signatureAt(t, coil, poseAt(t).translation()));
-  for (double t = t0; t <= t_end + 1e-9; t += 0.1)
-    run.geomagnetic.emplace_back(t, poseAt(t).linear().transpose() * kGeomagneticEnu);
-  return run;
-}
-
-/// Runs rendered once per test binary.
-const SimRun& runA() {
-  static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryA(), 1.0,
-                                    test::yawTransform(35.0, Eigen::Vector3d(2.0, -1.0, 0.0)), 0.6, 1.02);
-  return run;
-}
-const SimRun& runB() {
-  static const SimRun run = makeRun(test::TestWorld(kWorldSeed), trajectoryB(), 1.0,
-                                    test::yawTransform(-70.0, Eigen::Vector3d(10.0, 5.0, 0.2)), -0.4, 0.99, 5000.0);
-  return run;
-}
-
-PoseGraphManagerOptions testOptions(LoopClosingMode mode = LoopClosingMode::kFull) {
-  PoseGraphManagerOptions o;
-  o.mode = mode;
-  o.synchronous = true;
-  o.optimise_every_n_keyframes = 5;
-  // Short test runs: keyframes 1 s apart.
-  o.loop.exclude_recent_keyframes = 10;
-  o.loop.exclude_recent_s = 8.0;
-  return o;
-}
-
-std::shared_ptr<const BinaryVocabulary> vocabularyFor(const PoseGraphManagerOptions& o) {
-  return test::vocabulary(o.modeSettings().descriptor == DescriptorType::kOrb ? "orb_k8l4.vocab" : "brief_k8l4.vocab");
-}
-
-struct FeedOptions {
-  double mag_off_from = 1e300;  ///< no signatures at or after this time
-  bool geomagnetic = true;
-};
-
-/// Feeds a run in time order (keyframes, signatures and geomagnetic samples interleaved).
-void feed(PoseGraphManager& m, const SimRun& run, const FeedOptions& f = FeedOptions()) {
-  size_t s = 0, g = 0;
-  for (const KeyframeData& kf : run.keyframes) {
-    for (; s < run.signatures.size() && run.signatures[s].t <= kf.t; ++s)
-      if (run.signatures[s].t < f.mag_off_from) m.feedSignature(run.signatures[s]);
-    for (; g < run.geomagnetic.size() && run.geomagnetic[g].first <= kf.t; ++g)
-      if (f.geomagnetic) m.feedGeomagnetic(run.geomagnetic[g].first, run.geomagnetic[g].second);
-    m.feedKeyframe(kf);
-  }
-  for (; s < run.signatures.size(); ++s)
-    if (run.signatures[s].t < f.mag_off_from) m.feedSignature(run.signatures[s]);
-  for (; g < run.geomagnetic.size(); ++g)
-    if (f.geomagnetic) m.feedGeomagnetic(run.geomagnetic[g].first, run.geomagnetic[g].second);
-  m.finish();
-}
-
-/// Truth of a keyframe time.
-Eigen::Isometry3d truthAt(const SimRun& run, double t) {
-  for (size_t i = 0; i < run.keyframes.size(); ++i)
-    if (std::abs(run.keyframes[i].t - t) < 1e-6) return run.T_w_b[i];
-  ADD_FAILURE() << "no keyframe at t=" << t;
-  return Eigen::Isometry3d::Identity();
-}
-
-/// Max position error of a run's keyframe poses expressed in a frame G, given T_G_w.
-double maxPositionError(const std::vector<KeyframePose>& poses, const SimRun& run, const Eigen::Isometry3d& T_G_w) {
-  double worst = 0.0;
-  for (const KeyframePose& k : poses)
-    worst = std::max(worst, (k.T_w_b.translation() - (T_G_w * truthAt(run, k.t)).translation()).norm());
-  return worst;
-}
-
-/// The frame of a run's global poses relative to the world, from its first keyframe.
-Eigen::Isometry3d frameOf(const std::vector<KeyframePose>& poses, const SimRun& run) {
-  return poses.front().T_w_b * truthAt(run, poses.front().t).inverse();
-}
-
-/// Accepted loops agree with the truth in what the 4-DoF graph uses: the relative position and
-/// the relative yaw (the PnP tilt is dropped; it is checked in 6-DoF in test_loop_verification).
-void expectAcceptedLoopsCorrect(const std::vector<LoopAttempt>& attempts, const SimRun& query_run,
-                                const SimRun& match_run, double max_translation_error_m = 0.1) {
-  for (const LoopAttempt& a : attempts) {
-    if (!a.accepted) continue;
-    const Eigen::Isometry3d gt = truthAt(match_run, a.t_match).inverse() * truthAt(query_run, a.t_query);
-    const Eigen::Matrix3d dR = a.T_match_query.linear().transpose() * gt.linear();
-    EXPECT_LT((a.T_match_query.translation() - gt.translation()).norm(), max_translation_error_m)
-        << "loop " << a.t_query << " -> " << a.t_match;
-    EXPECT_LT(std::abs(yawPitchRollFromRotation(dR).yaw) / kDeg, 1.0) << "loop " << a.t_query << " -> " << a.t_match;
-    EXPECT_LT(Eigen::AngleAxisd(dR).angle() / kDeg, 3.0) << "loop " << a.t_query << " -> " << a.t_match;
-  }
-}
-
-std::string tempPath(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("vims_pgm_" + std::to_string(::getpid()) + "_" + name)).string();
-}
+using namespace manager_test;  // NOLINT: the shared runs and helpers
 
 // ---------------------------------------------------------------------------------------------
 
@@ -273,75 +107,6 @@ TEST(PoseGraphManager, SaveLoadRoundTripGivesTheSameGraph) {
   for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(a[i].T_w_b.isApprox(b[i].T_w_b, 1e-12));
   // Loading after keyframes (or twice) is refused.
   EXPECT_THROW(loaded.loadMap(path), std::logic_error);
-  std::remove(path.c_str());
-}
-
-TEST(PoseGraphManager, RelocalisesASecondRunIntoTheFirstRunsFrame) {
-  const SimRun& a = runA();
-  const SimRun& b = runB();
-  const PoseGraphManagerOptions o = testOptions();
-  const std::string path = tempPath("teach.vmap");
-  Eigen::Isometry3d T_map_w;
-  {
-    PoseGraphManager teach(o, test::testSequence(), vocabularyFor(o));
-    feed(teach, a);
-    const auto poses = teach.keyframePoses();
-    T_map_w = frameOf(poses, a);
-    teach.saveMap(path);
-  }
-  test::LogRecorder log;
-  PoseGraphManager repeat(o, test::testSequence(), vocabularyFor(o), log.logger());
-  repeat.loadMap(path);
-  feed(repeat, b);
-  const PoseGraphManagerStats st = repeat.stats();
-  ASSERT_TRUE(st.relocalised);
-  EXPECT_TRUE(log.contains("relocalised into the loaded map"));
-  EXPECT_GT(st.relocalised_t, 0.0);
-  EXPECT_GE(st.loops_accepted, 1u);
-  // Loops into the loaded map are verified against run A's truth.
-  for (const LoopAttempt& l : repeat.loopAttempts()) {
-    if (!l.accepted) continue;
-    bool match_in_a = false;
-    for (const KeyframeData& kf : a.keyframes) match_in_a |= std::abs(kf.t - l.t_match) < 1e-6;
-    if (!match_in_a) continue;
-    const Eigen::Isometry3d gt = truthAt(a, l.t_match).inverse() * truthAt(b, l.t_query);
-    EXPECT_LT((l.T_match_query.translation() - gt.translation()).norm(), 0.1);
-  }
-  // SimRun B's trajectory is expressed in run A's map frame.
-  const std::vector<KeyframePose> poses = repeat.keyframePoses();
-  ASSERT_EQ(poses.size(), b.keyframes.size());
-  EXPECT_LT(maxPositionError(poses, b, T_map_w), 0.2);
-  // The loaded map did not move (it is the reference).
-  const auto map_poses = repeat.keyframePoses(true);
-  double map_shift = 0.0;
-  for (const KeyframePose& k : map_poses)
-    if (k.loaded)
-      map_shift = std::max(map_shift, (k.T_w_b.translation() - (T_map_w * truthAt(a, k.t)).translation()).norm());
-  EXPECT_LT(map_shift, 0.2);
-
-  // Held (hold_loaded_map): the loaded keyframes stay exactly where the map file had them, and
-  // run B is still placed in the map's frame.
-  std::vector<KeyframePose> saved;
-  {
-    PoseGraphManager reloaded(o, test::testSequence(), vocabularyFor(o));
-    reloaded.loadMap(path);
-    saved = reloaded.keyframePoses(true);
-  }
-  PoseGraphManagerOptions held_options = o;
-  held_options.graph.hold_loaded_map = true;
-  PoseGraphManager held(held_options, test::testSequence(), vocabularyFor(held_options));
-  held.loadMap(path);
-  feed(held, b);
-  ASSERT_TRUE(held.stats().relocalised);
-  const auto held_poses = held.keyframePoses(true);
-  size_t compared = 0;
-  for (size_t i = 0; i < held_poses.size() && i < saved.size(); ++i) {
-    if (!held_poses[i].loaded) continue;
-    EXPECT_TRUE(held_poses[i].T_w_b.isApprox(saved[i].T_w_b, 1e-12)) << "loaded keyframe " << i << " moved";
-    ++compared;
-  }
-  EXPECT_EQ(compared, saved.size());
-  EXPECT_LT(maxPositionError(held.keyframePoses(), b, T_map_w), 0.2);
   std::remove(path.c_str());
 }
 

@@ -33,6 +33,18 @@ std::string toString(LoopClosingMode mode);
 /// Throws std::invalid_argument naming the value for anything else.
 LoopClosingMode loopClosingModeFromString(const std::string& name);
 
+/// What a run does with a loaded map (teach and repeat; docs/pose_graph.md, "Map modes"). Without
+/// a loaded map only kMapping makes sense (PoseGraphManager refuses the others).
+enum class MapMode {
+  kMapping,       ///< the loaded map is optimised with the run; the run's submaps join the map
+  kExtend,        ///< the loaded map is held fixed; the run's submaps join it (its new places)
+  kLocalisation,  ///< the loaded map is held fixed; the run only queries it and adds no submap
+};
+/// "mapping" / "extend" / "localisation".
+std::string toString(MapMode mode);
+/// Throws std::invalid_argument naming the value for anything else.
+MapMode mapModeFromString(const std::string& name);
+
 /// What a mode switches on. Derived from the mode only (never configured separately), so a mode
 /// name in a results table means exactly one set of stages.
 struct ModeSettings {
@@ -318,6 +330,12 @@ struct LoopDetectorOptions {
 /// config/pose_graph.yaml).
 struct PoseGraphManagerOptions {
   LoopClosingMode mode = LoopClosingMode::kFull;
+  /// What the run does with a loaded map (MapMode); switchable while running
+  /// (PoseGraphManager::setMapMode). Teach and repeat (tank seed 3 taught, seed 4 repeated):
+  /// mapping refines the map with the run (the map moves 0.02 m rms, its own ATE 0.026 -> 0.018
+  /// m; the repeat in it 1.05x the teach run's), extend and localisation hold it where the teach
+  /// run left it (1.12x; docs/benchmarks.md, "Teach and repeat").
+  MapMode map_mode = MapMode::kMapping;
   /// Vocabulary per descriptor type (relative paths are relative to the package root; the
   /// caller resolves them, see resolveVocabularyPath). The mode picks one.
   std::string vocabulary_orb = "config/vocabulary/orb_k8l4.vocab";
@@ -371,7 +389,7 @@ struct PoseGraphManagerOptions {
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<PoseGraphManagerOptions>& optionTable();
 
-  /// Keys: mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
+  /// Keys: mode, map_mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
   /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,
   /// and the mappings geomagnetic_gate, vehicle_field, features, magnetic_submaps, loop_closing, pose_graph.
   static PoseGraphManagerOptions fromReader(const ConfigReader& reader);

@@ -88,6 +88,10 @@ struct ComponentSnapshot {
 /// Writer of the map file format (multiscale_map.cpp).
 class MapFileWriter;
 
+/// What MultiScaleMap::save writes: the whole map, or only the sessions loaded from a map file
+/// with what lies among their keyframes (a localisation run adds nothing to the map it uses).
+enum class MapSaveScope { kAll, kLoadedSessions };
+
 class MultiScaleMap {
  public:
   /// File format version written by save(). Versions 1 (before several coils: its magnetic
@@ -199,10 +203,11 @@ class MultiScaleMap {
                                               ClusterMembers members = ClusterMembers::kVisualSubmaps) const;
 
   // ---- persistence
-  /// Writes the whole map (file format in docs/pose_graph.md) with the vocabulary reference
-  /// (path as given + checksum). Throws std::runtime_error on an I/O error.
-  void save(const std::string& path, const std::string& vocabulary_path) const;
-  std::vector<uint8_t> serialize(const std::string& vocabulary_path) const;
+  /// Writes the map (file format in docs/pose_graph.md) with the vocabulary reference (path as
+  /// given + checksum). kLoadedSessions: the loaded sessions' keyframes with the edges, yaw
+  /// factors and magnetic submaps among them only. Throws std::runtime_error on an I/O error.
+  void save(const std::string& path, const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll) const;
+  std::vector<uint8_t> serialize(const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll) const;
   /// Loads a file into this map, which must be empty; every session becomes a loaded session.
   /// Throws MapFileError (missing, truncated, corrupt, other version, inconsistent contents,
   /// descriptor type or vocabulary checksum differing from this map's vocabulary).
@@ -214,8 +219,8 @@ class MultiScaleMap {
 
  private:
   /// Header, payload and checksum; the payload alone (its size goes into the header).
-  void writeFile(MapFileWriter& w, const std::string& vocabulary_path) const;
-  void writePayload(MapFileWriter& w, const std::string& vocabulary_path) const;
+  void writeFile(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const;
+  void writePayload(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const;
   uint32_t findSession(uint32_t session) const;
   void uniteSessions(uint32_t a, uint32_t b);
   void checkNode(PoseGraphNodeId id, const char* what) const;
@@ -234,6 +239,9 @@ class MultiScaleMap {
   std::vector<MapSession> sessions_;
   Eigen::Isometry3d run_T_b_c_ = Eigen::Isometry3d::Identity();
   std::vector<uint32_t> session_parent_;  ///< union-find over sessions; a root is its component's oldest session
+  /// session_parent_ as the map file had it: the loaded sessions' components through their own
+  /// edges only (MapSaveScope::kLoadedSessions; a run's loops may have joined them since).
+  std::vector<uint32_t> loaded_session_parent_;
   std::vector<uint32_t> session_yaw_count_;
   std::vector<SequentialEdge> sequential_edges_;
   std::vector<LoopEdge> loop_edges_;

@@ -120,12 +120,6 @@ struct PoseGraphOptions {
   /// PoseGraphManagerOptions::optimise_every_n_keyframes keyframes old, or with the next loop
   /// that is not local, or at the end of data. 0 (or window_keyframes 0) = off.
   double loop_local_solve_max_sigmas = 3.0;
-  /// Teach and repeat: false = a loaded map's keyframes are optimised with the new run, whose
-  /// loops and yaw factors refine the map too (tank seed 3 taught, seed 4 repeated: the map moves
-  /// 0.02 m rms, its own ATE 0.026 -> 0.018 m, the repeat's in it 1.05x the teach run's); true =
-  /// they are held where the teach run left them, a fixed reference the run is placed in (1.12x;
-  /// docs/benchmarks.md, "Teach and repeat").
-  bool hold_loaded_map = false;
 
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<PoseGraphOptions>& optionTable();

@@ -70,8 +70,16 @@ class PoseGraphManager {
   /// into the map's frame. Throws MapFileError (clear message, manager unchanged).
   void loadMap(const std::string& path);
   /// Saves the map (waits for pending work in asynchronous mode; call finish() first to include
-  /// the last keyframes and the open magnetic submap). Throws std::runtime_error on I/O errors.
+  /// the last keyframes and the open magnetic submap). Localising, only the loaded map is
+  /// written (MapSaveScope::kLoadedSessions). Throws std::runtime_error on I/O errors.
   void saveMap(const std::string& path) const;
+  /// Switches what the run does with the loaded map (MapMode) from the next keyframe and solve
+  /// on. Throws std::invalid_argument for extend or localisation without a loaded map. A mode
+  /// other than mapping in the options without a map loaded by the first keyframe falls back to
+  /// mapping with a warning.
+  void setMapMode(MapMode mode);
+  /// The run's relocalisation state in the loaded map (thread-safe snapshot).
+  RelocalisationStatus relocalisationStatus() const;
 
   // ---- inputs
   /// A keyframe from the VIO. Defined behaviour for bad input: a non-finite or non-rotation pose,

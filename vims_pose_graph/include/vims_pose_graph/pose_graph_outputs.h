@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "vims_pose_graph/loop_closing_options.h"
 #include "vims_pose_graph/pose_graph.h"
 
 namespace vims {
@@ -63,6 +64,9 @@ struct PoseGraphManagerStats {
   /// Keyframes whose visual submap was not stored: an older one of the same place already is
   /// (LoopDetectorOptions::redundant_submap_radius_m); they still ran their loop query.
   size_t culled_submaps = 0;
+  /// Keyframes whose visual submap was not stored because the run was localising (MapMode);
+  /// they still ran their loop query.
+  size_t localisation_keyframes = 0;
   size_t loaded_keyframes = 0;
   size_t sessions = 0;  ///< of this run
   size_t loop_queries = 0;
@@ -80,6 +84,24 @@ struct PoseGraphManagerStats {
   /// t_query of the first accepted loop between the run and the loaded map (when relocalised):
   /// from then on the run is expressed in the map's frame.
   double relocalised_t = 0.0;
+  /// Accepted loops whose match is a keyframe of the loaded map, and the t_query of the newest.
+  size_t loops_into_map = 0;
+  double last_loop_into_map_t = 0.0;
+};
+
+/// Where a teach-and-repeat run stands (the pose-graph node's latched status topic).
+struct RelocalisationStatus {
+  MapMode map_mode = MapMode::kMapping;
+  bool map_loaded = false;
+  std::string map_path;               ///< the loaded file (empty without)
+  size_t loaded_keyframes = 0;        ///< keyframes of the loaded map
+  bool relocalised = false;           ///< a loop into the loaded map was accepted
+  double relocalised_t = 0.0;         ///< t_query of the first (when relocalised)
+  size_t loops_into_map = 0;          ///< accepted loops into the loaded map so far
+  double last_loop_into_map_t = 0.0;  ///< t_query of the newest (when loops_into_map > 0)
+  double latest_keyframe_t = 0.0;     ///< the run's newest keyframe (0 before the first)
+  size_t run_keyframes = 0;           ///< this run's keyframes in the graph
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
 };
 
 /// Why the manager optimised. kDeferredLoops: the solve from the earliest node of the loops that

@@ -111,7 +111,6 @@ const OptionTable<PoseGraphOptions>& PoseGraphOptions::optionTable() {
           .flag("loop_solve_from_earliest_node", &O::loop_solve_from_earliest_node)
           .integer("window_keyframes", &O::window_keyframes, Bounds::closed(0, 100000000))
           .number("loop_local_solve_max_sigmas", &O::loop_local_solve_max_sigmas, Bounds::nonNegative())
-          .flag("hold_loaded_map", &O::hold_loaded_map)
           .number("depth_sigma_m", &O::depth_sigma_m, Bounds::positive());
   return table;
 }

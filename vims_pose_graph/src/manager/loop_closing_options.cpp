@@ -37,6 +37,25 @@ LoopClosingMode loopClosingModeFromString(const std::string& name) {
                               "' (expected full, vi_slam, no_alter, no_orb or no_geom)");
 }
 
+std::string toString(MapMode mode) {
+  switch (mode) {
+    case MapMode::kMapping:
+      return "mapping";
+    case MapMode::kExtend:
+      return "extend";
+    case MapMode::kLocalisation:
+      return "localisation";
+  }
+  return "unknown";
+}
+
+MapMode mapModeFromString(const std::string& name) {
+  if (name == "mapping") return MapMode::kMapping;
+  if (name == "extend") return MapMode::kExtend;
+  if (name == "localisation") return MapMode::kLocalisation;
+  throw std::invalid_argument("unknown map mode '" + name + "' (expected mapping, extend or localisation)");
+}
+
 ModeSettings ModeSettings::forMode(LoopClosingMode mode) {
   ModeSettings s;
   switch (mode) {
@@ -179,10 +198,12 @@ const OptionTable<PoseGraphManagerOptions>& PoseGraphManagerOptions::optionTable
   const std::vector<LoopClosingMode> modes = {LoopClosingMode::kFull, LoopClosingMode::kViSlam,
                                               LoopClosingMode::kNoAlter, LoopClosingMode::kNoOrb,
                                               LoopClosingMode::kNoGeom};
+  const std::vector<MapMode> map_modes = {MapMode::kMapping, MapMode::kExtend, MapMode::kLocalisation};
   // The descriptor is set by the mode (orb, or brief for vi_slam and no_orb), not by the features section.
   static const auto table =
       OptionTable<O>()
           .choice<LoopClosingMode>("mode", &O::mode, modes, [](LoopClosingMode m) { return toString(m); })
+          .choice<MapMode>("map_mode", &O::map_mode, map_modes, [](MapMode m) { return toString(m); })
           .text("vocabulary_orb", &O::vocabulary_orb, false)
           .text("vocabulary_brief", &O::vocabulary_brief, false)
           .flag("synchronous", &O::synchronous)

@@ -112,6 +112,18 @@ void PoseGraphManager::saveMap(const std::string& path) const {
   core_->saveMap(path);
 }
 
+void PoseGraphManager::setMapMode(MapMode mode) {
+  // Queued keyframes were fed under the old mode: they are processed under it.
+  waitForIdle();
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  core_->setMapMode(mode);
+}
+
+RelocalisationStatus PoseGraphManager::relocalisationStatus() const {
+  std::lock_guard<std::mutex> lk(state_mutex_);
+  return core_->relocalisationStatus();
+}
+
 // ---------------------------------------------------------------------------------------------
 // Outputs: copies taken under the map lock
 // ---------------------------------------------------------------------------------------------

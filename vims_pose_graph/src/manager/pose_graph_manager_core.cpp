@@ -49,6 +49,8 @@ PoseGraphManagerCore::PoseGraphManagerCore(const PoseGraphManagerOptions& option
       vehicle_field_(options.vehicle_field),
       scheduler_(options, logger_, map_, run_nodes_) {
   options_.validate();
+  map_mode_ = options_.map_mode;
+  scheduler_.setHoldLoadedMap(map_mode_ != MapMode::kMapping);
   map_.setRunCameraExtrinsic(sequence.camera.T_b_c);
   describer_.setDenseCorners(options_.loop.submap_dense_corners, options_.loop.submap_corner_min_distance_px,
                              options_.loop.submap_corner_max_level);
@@ -103,6 +105,10 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
                                                      << map_.node(run_nodes_.back()).pose.t << ")"));
     return;
   }
+  if (run_nodes_.empty() && !map_loaded_ && map_mode_ != MapMode::kMapping) {
+    logger_->warn(kComponent, VIMS_STR("map mode " << toString(map_mode_) << " without a loaded map: mapping instead"));
+    setMapMode(MapMode::kMapping);
+  }
   const bool new_session = !current_session_ || kf.session != current_vio_session_;
   const bool has_previous = !run_nodes_.empty();
   const PoseGraphNodeId previous = has_previous ? run_nodes_.back() : 0;
@@ -144,13 +150,15 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
   // node unless keep_culled_bow_vectors is false, so that place recognition can be evaluated on
   // every keyframe of a run (vims_eval place-recognition). The run's first keyframe has no component
   // to compare with (a loaded map is in another one until relocalisation).
-  const bool culled = has_visual && has_previous &&
+  // Localising, no keyframe of the run is stored as a place: the map stays the loaded one.
+  const bool localising = map_mode_ == MapMode::kLocalisation;
+  const bool culled = has_visual && has_previous && !localising &&
                       submapIsRedundant(static_cast<PoseGraphNodeId>(map_.numNodes()), kf.t, p_w_b, previous);
-  if (culled) {
+  if (culled || (has_visual && localising)) {
     VisualSubmap bow_only;
     if (options_.loop.keep_culled_bow_vectors) bow_only.bow = submap.bow;
     submap = std::move(bow_only);
-    ++stats_.culled_submaps;
+    ++(culled ? stats_.culled_submaps : stats_.localisation_keyframes);
   }
   const PoseGraphNodeId id = map_.addNode(kf.t, session, kf.T_odom_b, p_w_b, yaw_w_b, std::move(submap), false);
   if (has_previous) {
@@ -479,6 +487,10 @@ void PoseGraphManagerCore::acceptLoop(const LoopAttempt& a) {
   }
   const LoopEdgeId loop_id = map_.addLoopEdge(m, q, a.T_match_query, a.sigma);
   ++stats_.loops_accepted;
+  if (map_.sessions()[map_.node(m).session].loaded) {
+    ++stats_.loops_into_map;
+    stats_.last_loop_into_map_t = std::max(stats_.last_loop_into_map_t, a.t_query);
+  }
   if (options_.graph.learn_odometry_drift) learnOdometryDrift(a.t_query);
   scheduler_.loopAccepted(loop_id, m, q);
   logger_->info(kComponent,
@@ -554,7 +566,9 @@ void PoseGraphManagerCore::placeSignatures(bool flush) {
 }
 
 void PoseGraphManagerCore::addMagneticDraft(const std::optional<MagneticSubmapDraft>& draft) {
-  if (!draft) return;
+  // Localising, the run's signatures still query the map (LoopQuery::signatures_enu) but do not
+  // become places of it.
+  if (!draft || map_mode_ == MapMode::kLocalisation) return;
   map_.addMagneticSubmap(*draft);
   ++stats_.magnetic_submaps;
 }
@@ -578,14 +592,46 @@ void PoseGraphManagerCore::loadMap(const std::string& path) {
     throw std::logic_error("PoseGraphManager::loadMap: load the map before the first keyframe (and only once)");
   map_.load(path);
   map_loaded_ = true;
+  map_path_ = path;
   stats_.loaded_keyframes = map_.numNodes();
 }
 
 void PoseGraphManagerCore::saveMap(const std::string& path) const {
+  if (map_mode_ == MapMode::kLocalisation) {
+    map_.save(path, options_.vocabularyPath(), MapSaveScope::kLoadedSessions);
+    logger_->info(kComponent, VIMS_STR("saved map '" << path << "': the loaded map's " << stats_.loaded_keyframes
+                                                     << " keyframes (localisation: this run is not part of it)"));
+    return;
+  }
   map_.save(path, options_.vocabularyPath());
   logger_->info(kComponent,
                 VIMS_STR("saved map '" << path << "': " << map_.numNodes() << " keyframes, " << map_.loopEdges().size()
                                        << " loops, " << map_.magneticSubmaps().size() << " magnetic submaps"));
+}
+
+void PoseGraphManagerCore::setMapMode(MapMode mode) {
+  if (mode != MapMode::kMapping && !map_loaded_)
+    throw std::invalid_argument("map mode " + toString(mode) + " needs a loaded map, and none is loaded");
+  if (mode == map_mode_) return;
+  logger_->info(kComponent, VIMS_STR("map mode " << toString(map_mode_) << " -> " << toString(mode)));
+  map_mode_ = mode;
+  scheduler_.setHoldLoadedMap(mode != MapMode::kMapping);
+}
+
+RelocalisationStatus PoseGraphManagerCore::relocalisationStatus() const {
+  RelocalisationStatus s;
+  s.map_mode = map_mode_;
+  s.map_loaded = map_loaded_;
+  s.map_path = map_path_;
+  s.loaded_keyframes = stats_.loaded_keyframes;
+  s.relocalised = stats_.relocalised;
+  s.relocalised_t = stats_.relocalised_t;
+  s.loops_into_map = stats_.loops_into_map;
+  s.last_loop_into_map_t = stats_.last_loop_into_map_t;
+  s.run_keyframes = run_nodes_.size();
+  if (!run_nodes_.empty()) s.latest_keyframe_t = map_.node(run_nodes_.back()).pose.t;
+  s.T_map_odom = T_map_odom();
+  return s;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -62,9 +62,12 @@ class PoseGraphManagerCore {
   /// submap, optimises.
   void finish();
 
-  // ---- map files (see PoseGraphManager)
+  // ---- map files and modes (see PoseGraphManager)
   void loadMap(const std::string& path);
   void saveMap(const std::string& path) const;
+  void setMapMode(MapMode mode);
+  MapMode mapMode() const { return map_mode_; }
+  RelocalisationStatus relocalisationStatus() const;
 
   // ---- outputs (see PoseGraphManager)
   std::vector<KeyframePose> keyframePoses(bool include_loaded) const;
@@ -162,6 +165,8 @@ class PoseGraphManagerCore {
   /// The vehicle-field fit has been used at some point of the run (recorrectYawFactors has work).
   bool yaw_factors_may_hold_correction_ = false;
   bool map_loaded_ = false;
+  std::string map_path_;  ///< the loaded file
+  MapMode map_mode_ = MapMode::kMapping;
   std::optional<uint32_t> current_session_;  ///< map session of the run's active VIO session
   uint32_t current_vio_session_ = 0;
   std::vector<PoseGraphNodeId> run_nodes_;  ///< this run's keyframes in time order

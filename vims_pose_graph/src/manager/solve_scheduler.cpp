@@ -121,7 +121,7 @@ SolvePlan SolveScheduler::planSolve(OptimisationTrigger trigger) const {
   }
   // A loaded map is node 0 onwards (loaded before the run's first keyframe), so the run's first
   // keyframe id is the map's size: held, the map is the fixed reference the run is placed in.
-  if (g.hold_loaded_map && !run_nodes_.empty()) first_free = std::max(first_free, run_nodes_.front());
+  if (hold_loaded_map_ && !run_nodes_.empty()) first_free = std::max(first_free, run_nodes_.front());
   // The convex Huber stage is considered for loops not in any solve yet.
   LoopEdgeId first_new_loop = 0;  // no new loops: past the newest id
   if (!loops_awaiting_correction_.empty())

@@ -46,6 +46,9 @@ class SolveScheduler {
   void loopAccepted(LoopEdgeId id, PoseGraphNodeId match, PoseGraphNodeId query);
   /// An optimisation was requested (whatever the trigger): the periodic count restarts.
   void optimisationRequested() { keyframes_since_optimisation_ = 0; }
+  /// Whether a loaded map is held where the map file had it (MapMode extend, localisation) or
+  /// optimised with the run (mapping); from the next solve on.
+  void setHoldLoadedMap(bool hold) { hold_loaded_map_ = hold; }
 
   // ---- one solve: plan (map lock held), solve (no lock needed), apply (map lock held)
   /// Snapshots of the components to optimise (reference component, and the run's if separate),
@@ -87,6 +90,7 @@ class SolveScheduler {
   MultiScaleMap& map_;
   const std::vector<PoseGraphNodeId>& run_nodes_;
   int keyframes_since_optimisation_ = 0;
+  bool hold_loaded_map_ = false;
   size_t optimisations_ = 0;
   PoseGraphTimings timings_;
   /// Loops no applied optimisation has included yet, oldest first.

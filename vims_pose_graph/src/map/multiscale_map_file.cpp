@@ -1,6 +1,7 @@
 /// @file multiscale_map_file.cpp
 /// @brief MultiScaleMap's map file: writing, reading and checking it (docs/pose_graph.md, "Map
 /// file"). The map's contents and their building are in multiscale_map.cpp.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -203,20 +204,34 @@ class MapFileWriter {
   uint64_t hash_ = kFnv1a64OffsetBasis;
 };
 
-void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary_path) const {
+void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const {
   w.str(vocabulary_ ? vocabulary_->descriptorType() : std::string());
   w.str(vocabulary_path);
   w.u64(vocabulary_checksum_);
   w.u64(vocabulary_ ? vocabulary_->numWords() : 0);
 
-  w.u32(static_cast<uint32_t>(sessions_.size()));
-  for (uint32_t s = 0; s < sessions_.size(); ++s) {
+  // The loaded sessions come first and their keyframes are the first nodes (a map is loaded
+  // before the run's first keyframe): kLoadedSessions writes those prefixes.
+  uint32_t num_sessions = static_cast<uint32_t>(sessions_.size());
+  if (scope == MapSaveScope::kLoadedSessions) {
+    num_sessions = 0;
+    while (num_sessions < sessions_.size() && sessions_[num_sessions].loaded) ++num_sessions;
+  }
+  size_t num_nodes = 0;
+  while (num_nodes < nodes_.size() && nodes_[num_nodes].session < num_sessions) ++num_nodes;
+  const auto kept = [num_nodes](PoseGraphNodeId id) { return id < num_nodes; };
+  const std::vector<uint32_t>& parents =
+      scope == MapSaveScope::kLoadedSessions ? loaded_session_parent_ : session_parent_;
+
+  w.u32(num_sessions);
+  for (uint32_t s = 0; s < num_sessions; ++s) {
     w.u32(sessions_[s].vio_session);
-    w.u32(session_parent_[s]);
+    w.u32(parents[s]);
     w.pose(sessions_[s].T_b_c);
   }
-  w.u32(static_cast<uint32_t>(nodes_.size()));
-  for (const MapNode& n : nodes_) {
+  w.u32(static_cast<uint32_t>(num_nodes));
+  for (size_t node = 0; node < num_nodes; ++node) {
+    const MapNode& n = nodes_[node];
     w.f64(n.pose.t);
     w.u32(n.session);
     w.pose(n.pose.T_odom_b);
@@ -245,16 +260,20 @@ void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary
       w.f64(e.weight);
     }
   }
-  w.u32(static_cast<uint32_t>(sequential_edges_.size()));
+  w.u32(static_cast<uint32_t>(std::count_if(sequential_edges_.begin(), sequential_edges_.end(),
+                                            [&](const SequentialEdge& e) { return kept(e.from) && kept(e.to); })));
   for (const SequentialEdge& e : sequential_edges_) {
+    if (!kept(e.from) || !kept(e.to)) continue;
     w.u32(e.from);
     w.u32(e.to);
     w.vec(e.measurement.p_li_j);
     w.f64(e.measurement.yaw_i_j);
     for (int i = 0; i < 4; ++i) w.f64(e.sqrt_information[i]);
   }
-  w.u32(static_cast<uint32_t>(loop_edges_.size()));
+  w.u32(static_cast<uint32_t>(std::count_if(loop_edges_.begin(), loop_edges_.end(),
+                                            [&](const LoopEdge& e) { return kept(e.match) && kept(e.query); })));
   for (const LoopEdge& e : loop_edges_) {
+    if (!kept(e.match) || !kept(e.query)) continue;
     w.u32(e.id);
     w.u32(e.match);
     w.u32(e.query);
@@ -264,15 +283,19 @@ void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary
     for (int i = 0; i < 4; ++i) w.f64(e.sqrt_information[i]);
     w.u8(e.enabled ? 1 : 0);
   }
-  w.u32(static_cast<uint32_t>(yaw_measurements_.size()));
+  w.u32(static_cast<uint32_t>(std::count_if(yaw_measurements_.begin(), yaw_measurements_.end(),
+                                            [&](const YawMeasurement& m) { return kept(m.node); })));
   for (const YawMeasurement& m : yaw_measurements_) {
+    if (!kept(m.node)) continue;
     w.u32(m.node);
     w.f64(m.u_l.x());
     w.f64(m.u_l.y());
     w.f64(m.heading_rad);
   }
-  w.u32(static_cast<uint32_t>(magnetic_submaps_.size()));
+  w.u32(static_cast<uint32_t>(std::count_if(magnetic_submaps_.begin(), magnetic_submaps_.end(),
+                                            [&](const MagneticSubmap& m) { return kept(m.tied_node); })));
   for (const MagneticSubmap& m : magnetic_submaps_) {
+    if (!kept(m.tied_node)) continue;
     w.u32(m.tied_node);
     w.f64(m.t);
     w.u32(static_cast<uint32_t>(m.coil));
@@ -282,24 +305,24 @@ void MultiScaleMap::writePayload(MapFileWriter& w, const std::string& vocabulary
   }
 }
 
-void MultiScaleMap::writeFile(MapFileWriter& w, const std::string& vocabulary_path) const {
+void MultiScaleMap::writeFile(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const {
   MapFileWriter counter;
-  writePayload(counter, vocabulary_path);
+  writePayload(counter, vocabulary_path, scope);
   w.raw(reinterpret_cast<const uint8_t*>(kMagic), 8);
   w.u32(kFileVersion);
   w.u64(counter.size());
-  writePayload(w, vocabulary_path);
+  writePayload(w, vocabulary_path, scope);
   w.finishWithChecksum();
 }
 
-std::vector<uint8_t> MultiScaleMap::serialize(const std::string& vocabulary_path) const {
+std::vector<uint8_t> MultiScaleMap::serialize(const std::string& vocabulary_path, MapSaveScope scope) const {
   std::vector<uint8_t> bytes;
   MapFileWriter w(&bytes);
-  writeFile(w, vocabulary_path);
+  writeFile(w, vocabulary_path, scope);
   return bytes;
 }
 
-void MultiScaleMap::save(const std::string& path, const std::string& vocabulary_path) const {
+void MultiScaleMap::save(const std::string& path, const std::string& vocabulary_path, MapSaveScope scope) const {
   // Write to a temporary file and rename, so a crash mid-write never leaves a half map under
   // the real name.
   const std::string tmp = path + ".tmp";
@@ -307,7 +330,7 @@ void MultiScaleMap::save(const std::string& path, const std::string& vocabulary_
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error("cannot write map file '" + tmp + "'");
     MapFileWriter w(&out);
-    writeFile(w, vocabulary_path);
+    writeFile(w, vocabulary_path, scope);
     out.flush();
     if (!out) throw std::runtime_error("I/O error writing map file '" + tmp + "'");
   }
@@ -526,6 +549,7 @@ void MultiScaleMap::deserialize(const std::vector<uint8_t>& bytes, const std::st
   nodes_ = std::move(m.nodes_);
   sessions_ = std::move(m.sessions_);
   session_parent_ = std::move(m.session_parent_);
+  loaded_session_parent_ = session_parent_;
   session_yaw_count_ = std::move(m.session_yaw_count_);
   sequential_edges_ = std::move(m.sequential_edges_);
   loop_edges_ = std::move(m.loop_edges_);

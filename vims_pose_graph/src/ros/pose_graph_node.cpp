@@ -9,8 +9,14 @@
 //             global/odometry     (nav_msgs/Odometry) vio/odometry moved into map by T_map_odom
 //             global/loop_edges   (visualization_msgs/Marker, latched) LINE_LIST between loop keyframes
 //             global/map_markers  (visualization_msgs/MarkerArray, latched) magnetic submaps (discs of
-//                                 their radius + ENU signature arrows), visual submaps (spheres)
+//                                 their radius + ENU signature arrows), visual submaps (spheres:
+//                                 this run's blue, a loaded map's purple)
+//             global/map_status   (vims/MapStatus, latched) teach and repeat: map mode, relocalised or
+//                                 not, loops into the loaded map, map -> odom
 //             tf map -> odom      (REP 105), with every odometry message and after new keyframes
+// Services    ~save_map        (vims/SaveMap) save the map now (path, '' = ~map_save)
+//             ~load_map        (vims/LoadMap) load a map to relocalise into, before the first keyframe
+//             ~set_map_mode    (vims/SetMapMode) mapping | extend | localisation
 // Params      ~sequence_config (string, required): the sequence YAML (camera, T_b_c, declination)
 //             ~config_file     (string or list of strings, optional): system configuration files
 //                              (vims::SystemConfig); the node uses the section pose_graph (e.g.
@@ -22,7 +28,9 @@
 //             ~package_root    (string): where relative vocabulary paths start; default: the path
 //                              of the `vims` package (roslib), required without roslib
 //             ~map_load        (string, optional): a saved map to relocalise against (teach and repeat)
-//             ~map_save        (string, optional): where to save the map on shutdown
+//             ~map_save        (string, optional): where to save the map on shutdown (and ~save_map's default)
+//             ~map_mode        (string, optional): mapping | extend | localisation, overriding
+//                              pose_graph.map_mode
 //             ~output_dir      (string, optional): writes loops.csv there as the attempts come
 //                              and, on shutdown after processing what is queued, global.tum: the
 //                              same files vims_offline writes (docs/offline_outputs.md)
@@ -35,7 +43,11 @@
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <vims/LoadMap.h>
 #include <vims/MagneticSignature.h>
+#include <vims/MapStatus.h>
+#include <vims/SaveMap.h>
+#include <vims/SetMapMode.h>
 #include <visualization_msgs/Marker.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -114,12 +126,17 @@ boost::array<double, 36> rotateCovariance(const boost::array<double, 36>& covari
 
 class PoseGraphNode {
  public:
-  PoseGraphNode(ros::NodeHandle& nh, std::unique_ptr<vims::PoseGraphManager> manager, NodeSettings settings)
+  PoseGraphNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, std::unique_ptr<vims::PoseGraphManager> manager,
+                NodeSettings settings)
       : manager_(std::move(manager)), settings_(std::move(settings)) {
     path_pub_ = nh.advertise<nav_msgs::Path>("global/path", 2, true);
     odometry_pub_ = nh.advertise<nav_msgs::Odometry>("global/odometry", 50);
     loop_edges_pub_ = nh.advertise<visualization_msgs::Marker>("global/loop_edges", 2, true);
     map_markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("global/map_markers", 2, true);
+    map_status_pub_ = nh.advertise<vims::MapStatus>("global/map_status", 1, true);
+    save_map_srv_ = pnh.advertiseService("save_map", &PoseGraphNode::onSaveMap, this);
+    load_map_srv_ = pnh.advertiseService("load_map", &PoseGraphNode::onLoadMap, this);
+    set_map_mode_srv_ = pnh.advertiseService("set_map_mode", &PoseGraphNode::onSetMapMode, this);
     // Keyframes carry images: a short queue; the manager's own queue absorbs bursts.
     keyframe_sub_ = nh.subscribe("vio/keyframe", 20, &PoseGraphNode::onKeyframe, this);
     signature_sub_ = nh.subscribe("mag/signature", 50, &PoseGraphNode::onSignature, this);
@@ -144,8 +161,11 @@ class PoseGraphNode {
                                         << ", " << signature_sub_.getTopic() << ", " << geomagnetic_sub_.getTopic()
                                         << ", " << odometry_sub_.getTopic() << " -> " << path_pub_.getTopic() << ", "
                                         << odometry_pub_.getTopic() << ", " << loop_edges_pub_.getTopic() << ", "
-                                        << map_markers_pub_.getTopic() << ", tf " << settings_.map_frame_id << " -> "
-                                        << settings_.odom_frame_id);
+                                        << map_markers_pub_.getTopic() << ", " << map_status_pub_.getTopic() << ", tf "
+                                        << settings_.map_frame_id << " -> " << settings_.odom_frame_id << "; services "
+                                        << save_map_srv_.getService() << ", " << load_map_srv_.getService() << ", "
+                                        << set_map_mode_srv_.getService());
+    publishMapStatus();
   }
 
   /// End of the run (after ros::spin returned): processes what is still queued and saves the
@@ -192,6 +212,84 @@ class PoseGraphNode {
       return false;
     }
     return true;
+  }
+
+  bool onSaveMap(vims::SaveMap::Request& request, vims::SaveMap::Response& response) {
+    const std::string path = request.path.empty() ? settings_.map_save_path : request.path;
+    if (path.empty()) {
+      response.message = "no path given and no ~map_save set";
+    } else {
+      try {
+        manager_->saveMap(path);
+        response.success = true;
+        response.message = "map saved to " + path;
+      } catch (const std::exception& e) {
+        response.message = "could not save the map to " + path + ": " + e.what();
+      }
+    }
+    logServiceResult("save_map", response.success, response.message);
+    return true;
+  }
+
+  bool onLoadMap(vims::LoadMap::Request& request, vims::LoadMap::Response& response) {
+    try {
+      manager_->loadMap(request.path);
+      response.success = true;
+      response.message = "map loaded from " + request.path;
+    } catch (const vims::MapFileError& e) {
+      response.message = e.what();
+    } catch (const std::logic_error&) {
+      response.message = "a map is loaded before the run's first keyframe and only once (restart with ~map_load)";
+    }
+    logServiceResult("load_map", response.success, response.message);
+    publishMapStatus();
+    return true;
+  }
+
+  bool onSetMapMode(vims::SetMapMode::Request& request, vims::SetMapMode::Response& response) {
+    try {
+      manager_->setMapMode(vims::mapModeFromString(request.mode));
+      response.success = true;
+      response.message = "map mode " + request.mode;
+    } catch (const std::invalid_argument& e) {
+      response.message = e.what();
+    }
+    logServiceResult("set_map_mode", response.success, response.message);
+    publishMapStatus();
+    return true;
+  }
+
+  static void logServiceResult(const char* service, bool success, const std::string& message) {
+    if (success)
+      ROS_INFO_STREAM(service << ": " << message);
+    else
+      ROS_WARN_STREAM(service << " failed: " << message);
+  }
+
+  void publishMapStatus() {
+    const vims::RelocalisationStatus status = manager_->relocalisationStatus();
+    vims::MapStatus msg;
+    msg.header.stamp = ros::Time(status.latest_keyframe_t);
+    msg.header.frame_id = settings_.map_frame_id;
+    msg.map_mode = vims::toString(status.map_mode);
+    msg.map_loaded = status.map_loaded;
+    msg.map_path = status.map_path;
+    msg.loaded_keyframes = static_cast<uint32_t>(status.loaded_keyframes);
+    msg.run_keyframes = static_cast<uint32_t>(status.run_keyframes);
+    msg.relocalised = status.relocalised;
+    if (status.relocalised) msg.relocalised_stamp = ros::Time(status.relocalised_t);
+    msg.loops_into_map = static_cast<uint32_t>(status.loops_into_map);
+    msg.time_since_last_loop_into_map_s = -1.0;
+    if (status.loops_into_map > 0) {
+      msg.last_loop_into_map_stamp = ros::Time(status.last_loop_into_map_t);
+      msg.time_since_last_loop_into_map_s = std::max(0.0, status.latest_keyframe_t - status.last_loop_into_map_t);
+    }
+    const geometry_msgs::Pose pose = vims::toPoseMsg(status.T_map_odom);
+    msg.map_to_odom.translation.x = pose.position.x;
+    msg.map_to_odom.translation.y = pose.position.y;
+    msg.map_to_odom.translation.z = pose.position.z;
+    msg.map_to_odom.rotation = pose.orientation;
+    map_status_pub_.publish(msg);
   }
 
   void onKeyframe(const vims::Keyframe::ConstPtr& msg) {
@@ -259,6 +357,7 @@ class PoseGraphNode {
     if (!poses.empty()) publishPath(poses);
     publishLoopEdges(manager_->loopEdges());
     publishMapMarkers(manager_->mapContents());
+    publishMapStatus();
     const std::vector<vims::LoopAttempt> attempts = manager_->takeNewLoopAttempts();
     for (const vims::LoopAttempt& attempt : attempts) {
       if (attempt.accepted) {
@@ -413,6 +512,10 @@ class PoseGraphNode {
   ros::Publisher odometry_pub_;
   ros::Publisher loop_edges_pub_;
   ros::Publisher map_markers_pub_;
+  ros::Publisher map_status_pub_;
+  ros::ServiceServer save_map_srv_;
+  ros::ServiceServer load_map_srv_;
+  ros::ServiceServer set_map_mode_srv_;
   ros::Subscriber keyframe_sub_;
   ros::Subscriber signature_sub_;
   ros::Subscriber geomagnetic_sub_;
@@ -436,13 +539,14 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "vims_pose_graph");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
-  std::string sequence_path, mode_name, map_load_path;
+  std::string sequence_path, mode_name, map_load_path, map_mode_name;
   if (!pnh.getParam("sequence_config", sequence_path)) {
     ROS_FATAL("parameter ~sequence_config (path of the sequence YAML) is required");
     return 1;
   }
   pnh.param<std::string>("mode", mode_name, "");
   pnh.param<std::string>("map_load", map_load_path, "");
+  pnh.param<std::string>("map_mode", map_mode_name, "");
   NodeSettings settings;
   pnh.param<std::string>("map_save", settings.map_save_path, "");
   pnh.param<std::string>("output_dir", settings.output_dir, "");
@@ -475,6 +579,11 @@ int main(int argc, char** argv) {
     vims::SystemConfig config = vims::SystemConfig::load(vims::configFilesParam(pnh), sequence);
     if (!mode_name.empty()) config.applyMode(mode_name);
     vims::PoseGraphManagerOptions& options = config.pose_graph;
+    if (!map_mode_name.empty()) options.map_mode = vims::mapModeFromString(map_mode_name);
+    if (options.map_mode != vims::MapMode::kMapping && map_load_path.empty())
+      ROS_WARN_STREAM("map mode " << vims::toString(options.map_mode)
+                                  << " without ~map_load: load a map with ~load_map before the first keyframe, "
+                                     "or the run maps");
     if (options.synchronous) {
       ROS_INFO("pose graph options: synchronous ignored, the node uses the worker threads");
       options.synchronous = false;
@@ -486,7 +595,7 @@ int main(int argc, char** argv) {
       manager->loadMap(map_load_path);
       ROS_INFO_STREAM("map loaded from " << map_load_path);
     }
-    node = std::make_unique<PoseGraphNode>(nh, std::move(manager), settings);
+    node = std::make_unique<PoseGraphNode>(nh, pnh, std::move(manager), settings);
   } catch (const vims::ConfigError& e) {
     ROS_FATAL_STREAM("configuration error: " << e.what());
     return 1;
@@ -497,7 +606,7 @@ int main(int argc, char** argv) {
     ROS_FATAL_STREAM("parameter ~map_load: " << e.what());
     return 1;
   } catch (const std::invalid_argument& e) {
-    ROS_FATAL_STREAM("pose graph options: " << e.what());
+    ROS_FATAL_STREAM("pose graph options (or ~map_mode): " << e.what());
     return 1;
   }
   ros::spin();
