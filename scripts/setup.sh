@@ -10,7 +10,8 @@ PACKAGES=(
   libnav-msgs-dev libvisualization-msgs-dev
   libceres-dev libopencv-dev libeigen3-dev libyaml-cpp-dev
   googletest libgtest-dev libgmock-dev libbenchmark-dev
-  python3-rosbag python3-roslaunch python3-rostest python3-rostopic python3-rosnode
+  python3-rosbag python3-roslaunch python3-rostest python3-rostopic python3-rosnode python3-rosservice
+  python3-geometry-msgs python3-sensor-msgs
   rviz xvfb xauth imagemagick
 )
 
