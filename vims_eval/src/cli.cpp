@@ -281,7 +281,7 @@ usage:
                   [--config FILE]
   vims_eval run --sequence DIR --out OUT [any option of traj and loops except --gt/--est/--loops/--plots/--label]
   vims_eval relocalisation --teach-sequence DIR --teach-out OUT --sequence DIR --out OUT
-                           [--map-radius 1.5] [--correct-tol 0.5]
+                           [--map-radius 1] [--correct-tol 0.5]
   vims_eval ablation --sequence DIR --out OUT [--jobs 2] [--modes vi_slam,no_sonar,no_alter,no_orb,no_geom,full]
                      [--offline PATH] [--offline-config FILE] [--package-root DIR] [--no-run] [--no-figures]
                      [evaluation options as run]

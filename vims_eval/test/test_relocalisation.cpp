@@ -28,7 +28,7 @@ std::vector<StampedPose> teachTruth() {
 }
 
 /// The repeat run: from (30, 0) westwards along y = 0 at 0.5 m/s; it reaches the ellipse's
-/// eastern end (10, 0), i.e. 1.5 m from it at x = 11.5, after 37 s.
+/// eastern end (10, 0), i.e. 1 m from it at x = 11, after 38 s.
 std::vector<StampedPose> repeatTruth() {
   std::vector<StampedPose> gt;
   for (int i = 0; i <= 1200; ++i) {
@@ -63,9 +63,9 @@ TEST(Relocalisation, ScoresARepeatRunInTheTeachMapsFrame) {
       evaluateRelocalisation(teach_gt, inMapFrame(teach_gt, Eigen::Vector3d::Zero()), repeat_gt,
                              inMapFrame(repeat_gt, Eigen::Vector3d(0.1, 0, 0)), {true, 2040.0}, {});
   ASSERT_TRUE(ev.t_entered.has_value());
-  EXPECT_NEAR(*ev.t_entered, 2037.0, 0.06);
+  EXPECT_NEAR(*ev.t_entered, 2038.0, 0.06);
   EXPECT_TRUE(ev.relocalised);
-  EXPECT_NEAR(ev.delay_s, 3.0, 0.06);
+  EXPECT_NEAR(ev.delay_s, 2.0, 0.06);
   EXPECT_TRUE(ev.correct);
   EXPECT_NEAR(ev.error_at_relocalisation_m, 0.1, 1e-6);
   EXPECT_NEAR(ev.ate_after_rmse_m, 0.1, 1e-6);
@@ -73,6 +73,29 @@ TEST(Relocalisation, ScoresARepeatRunInTheTeachMapsFrame) {
   EXPECT_EQ(ev.poses_after, 201u);  // 2040 ... 2060 s, every 0.1 s
   EXPECT_NE(ev.summaryLine().find("VIMS_EVAL_RELOC relocalised=1 correct=1 entered=1"), std::string::npos)
       << ev.summaryLine();
+}
+
+TEST(Relocalisation, PassingBesideTheMapIsNotEnteringIt) {
+  // 1.4 m east of the ellipse's eastern end, moving east, then from t = 3010 hovering 0.5 m
+  // inside the track: it enters at 3010 (1 m radius), or at once with a 1.5 m one.
+  const auto teach_gt = teachTruth();
+  std::vector<StampedPose> repeat_gt;
+  for (int i = 0; i <= 400; ++i) {
+    StampedPose p;
+    p.t = 3000.0 + 0.05 * i;
+    p.p = p.t < 3010.0 ? Eigen::Vector3d(11.4 + 0.5 * (p.t - 3000.0), 0.0, -8.0) : Eigen::Vector3d(9.5, 0.0, -8.0);
+    repeat_gt.push_back(p);
+  }
+  const auto teach_est = inMapFrame(teach_gt, Eigen::Vector3d::Zero());
+  const auto repeat_est = inMapFrame(repeat_gt, Eigen::Vector3d::Zero());
+  const RelocalisationEvaluation ev = evaluateRelocalisation(teach_gt, teach_est, repeat_gt, repeat_est, {}, {});
+  ASSERT_TRUE(ev.t_entered.has_value());
+  EXPECT_NEAR(*ev.t_entered, 3010.0, 1e-6);
+  RelocalisationOptions wide;
+  wide.map_radius_m = 1.5;
+  const auto beside = evaluateRelocalisation(teach_gt, teach_est, repeat_gt, repeat_est, {}, wide).t_entered;
+  ASSERT_TRUE(beside.has_value());
+  EXPECT_NEAR(*beside, 3000.0, 1e-6);
 }
 
 TEST(Relocalisation, ARelocalisationAtTheWrongPlaceIsWrong) {

@@ -452,9 +452,10 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
       << ", culled_submaps: " << pg.culled_submaps << ", localisation_keyframes: " << pg.localisation_keyframes
-      << ", sessions: " << pg.sessions << ", loop_queries: " << pg.loop_queries
-      << ", loop_attempts: " << pg.loop_attempts << ", loops_accepted: " << pg.loops_accepted
-      << ", yaw_factors: " << pg.yaw_factors << ", yaw_rejected: " << pg.yaw_rejected
+      << ", localisation_skipped_queries: " << pg.localisation_skipped_queries << ", sessions: " << pg.sessions
+      << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
+      << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
+      << ", yaw_rejected: " << pg.yaw_rejected
       << ", vehicle_field_taken_out: " << (pg.vehicle_field_taken_out ? "true" : "false")
       << ", vehicle_field_explained: " << pg.vehicle_field_explained << ", magnetic_submaps: " << pg.magnetic_submaps
       << ", optimisations: " << pg.optimisations << ", relocalised: " << (pg.relocalised ? "true" : "false");

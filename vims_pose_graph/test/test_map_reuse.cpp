@@ -118,7 +118,7 @@ TEST(PoseGraphManager, LocalisationPlacesTheRunInTheMapAndAddsNothingToIt) {
   // Every loop goes into the map: the run's keyframes are no candidates.
   EXPECT_GE(st.loops_into_map, 1u);
   EXPECT_EQ(st.loops_into_map, st.loops_accepted);
-  EXPECT_EQ(st.localisation_keyframes + st.empty_keyframes, b.keyframes.size());
+  EXPECT_EQ(st.localisation_keyframes + st.empty_keyframes + st.localisation_skipped_queries, b.keyframes.size());
   EXPECT_EQ(st.magnetic_submaps, 0u);
   for (const VisualSubmapMarker& v : loc.mapContents().visual) EXPECT_TRUE(v.loaded) << "run keyframe stored";
   loc.inspectMap([&](const MultiScaleMap& map) { EXPECT_EQ(map.magneticSubmaps().size(), loaded_magnetic); });
@@ -146,6 +146,38 @@ TEST(PoseGraphManager, LocalisationPlacesTheRunInTheMapAndAddsNothingToIt) {
   EXPECT_EQ(fileBytes(saved_path), fileBytes(teach_path));
   std::remove(teach_path.c_str());
   std::remove(saved_path.c_str());
+}
+
+TEST(PoseGraphManager, LocalisedRunsQueryOnlyEveryIntervalWhileLoopsIntoTheMapKeepComing) {
+  const SimRun& b = runB();
+  const std::string teach_path = tempPath("throttle_teach.vmap");
+  const Eigen::Isometry3d T_map_w = teachMap(teach_path);
+  auto localise = [&](double interval_s, double lost_after_s) {
+    PoseGraphManagerOptions o = testOptions();
+    o.map_mode = MapMode::kLocalisation;
+    o.localisation_query_interval_s = interval_s;
+    o.localisation_lost_after_s = lost_after_s;
+    auto m = std::make_unique<PoseGraphManager>(o, test::testSequence(), vocabularyFor(o));
+    m->loadMap(teach_path);
+    feed(*m, b);
+    return m;
+  };
+  const auto every = localise(0.0, 5.0);
+  const auto throttled = localise(2.5, 5.0);
+  const PoseGraphManagerStats all = every->stats(), few = throttled->stats();
+  ASSERT_TRUE(few.relocalised);
+  EXPECT_EQ(all.localisation_skipped_queries, 0u);
+  // Keyframes are 1 s apart: once localised, about one in three queries.
+  EXPECT_GT(few.localisation_skipped_queries, b.keyframes.size() / 3);
+  EXPECT_EQ(few.loop_queries + few.localisation_skipped_queries, all.loop_queries);
+  EXPECT_GE(few.loops_into_map, 1u);
+  EXPECT_LT(few.loops_into_map, all.loops_into_map);
+  EXPECT_DOUBLE_EQ(few.relocalised_t, all.relocalised_t);  // the search before it is untouched
+  EXPECT_LT(maxPositionError(throttled->keyframePoses(), b, T_map_w), 0.2);
+  // No loop into the map within lost_after_s of a keyframe (here never, the loops lag the
+  // keyframes by a second): every keyframe queries.
+  EXPECT_EQ(localise(2.5, 0.5)->stats().localisation_skipped_queries, 0u);
+  std::remove(teach_path.c_str());
 }
 
 TEST(PoseGraphManager, ExtendAddsTheRunsPlacesSoTheMapHoldsBothMissionsAndModesSwitchWhileRunning) {

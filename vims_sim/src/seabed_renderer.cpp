@@ -99,16 +99,20 @@ SeabedRenderer::SeabedRenderer(const CameraCalibration& calibration, std::shared
       lamp_vignette_[i] = static_cast<float>(beam * std::pow(cos_off_axis, optics_.vignetting_exponent));
     }
   }
-  // Lamp gain from the reference: white seabed, on axis, at reference_range -> reference_signal.
+  // Lamp gain from the exposure's reference: white seabed, on axis, at reference_range in water of
+  // reference_attenuation -> reference_signal; the lamp's power scales it (and the haze, which is
+  // the lamp's light scattered back).
   const double r_ref = optics_.reference_range;
-  const double lamp_gain = optics_.reference_signal * r_ref * r_ref * std::exp(2.0 * optics_.attenuation * r_ref);
+  const double lamp_gain = optics_.lamp_power * optics_.reference_signal * r_ref * r_ref *
+                           std::exp(2.0 * optics_.reference_attenuation * r_ref);
+  const double haze_level = optics_.lamp_power * optics_.backscatter;
   const int table_size = static_cast<int>(std::ceil(optics_.max_range / kRangeTableStep)) + 2;
   range_irradiance_.resize(table_size);
   range_haze_.resize(table_size);
   for (int k = 0; k < table_size; ++k) {
     const double r = std::max(1e-3, k * static_cast<double>(kRangeTableStep));
     range_irradiance_[k] = static_cast<float>(lamp_gain * std::exp(-2.0 * optics_.attenuation * r) / (r * r));
-    range_haze_[k] = static_cast<float>(optics_.backscatter * (1.0 - std::exp(-r / optics_.backscatter_range)));
+    range_haze_[k] = static_cast<float>(haze_level * (1.0 - std::exp(-r / optics_.backscatter_range)));
   }
   response_lut_.resize(kResponseLutSize);
   for (int i = 0; i < kResponseLutSize; ++i) {
@@ -332,7 +336,7 @@ void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws
   // 3. Photometry: lamp light on a Lambertian seabed plus backscatter haze, vignetted.
   ws.signal.create(height, width, CV_32FC1);
   float* out = ws.signal.ptr<float>();
-  const float saturated_haze = static_cast<float>(optics_.backscatter);
+  const float saturated_haze = static_cast<float>(optics_.lamp_power * optics_.backscatter);
   const float* irradiance_table = range_irradiance_.data();
   const float* haze_table = range_haze_.data();
   const int last_entry = static_cast<int>(range_irradiance_.size()) - 2;

@@ -23,7 +23,12 @@ enum : uint64_t {
   kSeedObjects = 108,
   kSeedRockSurface = 109,
   kSeedRipples = 110,
+  kSeedChangedSeabed = 111,  // of the change seed: the seabed laid in the changed patches
+  kSeedChangeMask = 112,     // of the change seed: where the patches are
 };
+
+constexpr double kChangePatchSpacing = 2.0;  // [m] value-noise lattice of the changed patches
+constexpr double kChangeEdge = 0.08;         // noise units over which a patch edge blends
 
 constexpr double kObjectCell = 0.2;        // [m] hash-grid cell; at most one object per cell
 constexpr double kMaxObjectExtent = 0.36;  // [m] no object reaches further from its anchor
@@ -205,7 +210,8 @@ void drawWeed(TileCanvas& canvas, Rng& rng, double cx, double cy) {
 
 }  // namespace
 
-SeabedTexture::SeabedTexture(uint64_t world_seed, SeabedTextureParams params) : seed_(world_seed), params_(params) {
+SeabedTexture::SeabedTexture(uint64_t world_seed, SeabedTextureParams params)
+    : seed_(world_seed), params_(params), change_threshold_(changeThreshold(params)) {
   if (!(params_.texel_size > 0.0)) throw std::invalid_argument("SeabedTexture: texel size must be > 0");
   if (params_.levels < 1 || params_.levels > 10)
     throw std::invalid_argument("SeabedTexture: levels must be in [1, 10]");
@@ -213,13 +219,41 @@ SeabedTexture::SeabedTexture(uint64_t world_seed, SeabedTextureParams params) : 
     throw std::invalid_argument("SeabedTexture: tile_texels must be a positive multiple of 2^(levels - 1)");
   }
   if (params_.cache_tiles < 4) throw std::invalid_argument("SeabedTexture: cache must hold at least 4 tiles");
+  if (!(params_.change_fraction >= 0.0 && params_.change_fraction <= 1.0))
+    throw std::invalid_argument("SeabedTexture: change fraction must be in [0, 1]");
 }
 
-double SeabedTexture::featureDensity(double x, double y) const {
-  const double n = 0.7 * valueNoise(deriveSeed(seed_, kSeedDensity), 9.0, x, y) +
-                   0.3 * valueNoise(deriveSeed(seed_, kSeedDensity2), 3.5, x, y);
+double SeabedTexture::featureDensity(double x, double y) const { return featureDensityOf(seed_, x, y); }
+
+double SeabedTexture::featureDensityOf(uint64_t seed, double x, double y) {
+  const double n = 0.7 * valueNoise(deriveSeed(seed, kSeedDensity), 9.0, x, y) +
+                   0.3 * valueNoise(deriveSeed(seed, kSeedDensity2), 3.5, x, y);
   const double t = clamp01((0.5 + 0.5 * n - 0.3) / 0.4);
   return t * t * (3.0 - 2.0 * t);
+}
+
+double SeabedTexture::changeThreshold(const SeabedTextureParams& params) {
+  if (!(params.change_fraction > 0.0)) return 2.0;  // above every noise value: nothing changed
+  if (params.change_fraction >= 1.0) return -2.0;   // below every one: all changed
+  // The patch noise is stationary: its (1 - fraction) quantile over a large sample of the plane
+  // is the level above which that fraction of the area lies.
+  const uint64_t mask_seed = deriveSeed(params.change_seed, kSeedChangeMask);
+  std::vector<double> values;
+  constexpr int kSamples = 200;
+  constexpr double kStep = 0.37 * kChangePatchSpacing;  // incommensurate with the lattice
+  values.reserve(kSamples * kSamples);
+  for (int j = 0; j < kSamples; ++j)
+    for (int i = 0; i < kSamples; ++i)
+      values.push_back(valueNoise(mask_seed, kChangePatchSpacing, i * kStep, j * kStep));
+  const auto k = static_cast<size_t>((1.0 - params.change_fraction) * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+double SeabedTexture::changeWeight(double x, double y) const {
+  if (params_.change_fraction <= 0.0) return 0.0;
+  const double n = valueNoise(deriveSeed(params_.change_seed, kSeedChangeMask), kChangePatchSpacing, x, y);
+  return clamp01((n - change_threshold_) / kChangeEdge + 0.5);
 }
 
 std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, int64_t tile_y) const {
@@ -227,10 +261,42 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
   const double s = params_.texel_size;
   const double x0 = static_cast<double>(tile_x * n) * s;
   const double y0 = static_cast<double>(tile_y * n) * s;
+  cv::Mat albedo = drawAlbedo(seed_, tile_x, tile_y);
+  if (params_.change_fraction > 0.0) {
+    // Re-laid patches: another seabed's sand and objects, blended over a narrow edge.
+    const cv::Mat changed = drawAlbedo(deriveSeed(params_.change_seed, kSeedChangedSeabed), tile_x, tile_y);
+    for (int r = 0; r < n; ++r) {
+      float* row = albedo.ptr<float>(r);
+      const float* other = changed.ptr<float>(r);
+      const double y = y0 + (r + 0.5) * s;
+      for (int c = 0; c < n; ++c) {
+        const auto w = static_cast<float>(changeWeight(x0 + (c + 0.5) * s, y));
+        if (w > 0.0f) row[c] += w * (other[c] - row[c]);
+      }
+    }
+  }
+
+  auto tile = std::make_shared<SeabedTile>();
+  tile->tile_x = tile_x;
+  tile->tile_y = tile_y;
+  tile->levels.resize(params_.levels);
+  albedo.convertTo(tile->levels[0], CV_8UC1, 255.0);  // saturating, rounded
+  for (int level = 1; level < params_.levels; ++level) {
+    const cv::Mat& finer = tile->levels[level - 1];
+    cv::resize(finer, tile->levels[level], cv::Size(finer.cols / 2, finer.rows / 2), 0, 0, cv::INTER_AREA);
+  }
+  return tile;
+}
+
+cv::Mat SeabedTexture::drawAlbedo(uint64_t seed, int64_t tile_x, int64_t tile_y) const {
+  const int n = params_.tile_texels;
+  const double s = params_.texel_size;
+  const double x0 = static_cast<double>(tile_x * n) * s;
+  const double y0 = static_cast<double>(tile_y * n) * s;
   const double x1 = x0 + n * s, y1 = y0 + n * s;
 
   // World-level parameters (identical for every tile of this world).
-  Rng world_rng(deriveSeed(seed_, kSeedRipples));
+  Rng world_rng(deriveSeed(seed, kSeedRipples));
   const double ripple_direction = world_rng.uniform(0.0, M_PI);
   const double ripple_wavelength = world_rng.uniform(0.085, 0.12);
   const double ripple_dx = std::cos(ripple_direction) * 2.0 * M_PI / ripple_wavelength;
@@ -243,13 +309,13 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
   std::vector<LatticeNoise> fbm;
   double fbm_norm = 0.0;
   for (int o = 0; o < 7; ++o) {
-    fbm.emplace_back(deriveSeed(seed_, kSeedSand + 1000 * (o + 1)), fbm_spacing[o], x0, y0, x1, y1);
+    fbm.emplace_back(deriveSeed(seed, kSeedSand + 1000 * (o + 1)), fbm_spacing[o], x0, y0, x1, y1);
     fbm_norm += fbm_weight[o];
   }
-  const LatticeNoise tone(deriveSeed(seed_, kSeedTone), 6.0, x0, y0, x1, y1);
-  const LatticeNoise warp(deriveSeed(seed_, kSeedRippleWarp), 0.6, x0, y0, x1, y1);
-  const LatticeNoise warp2(deriveSeed(seed_, kSeedRippleWarp2), 2.0, x0, y0, x1, y1);
-  const LatticeNoise strength(deriveSeed(seed_, kSeedRippleStrength), 4.0, x0, y0, x1, y1);
+  const LatticeNoise tone(deriveSeed(seed, kSeedTone), 6.0, x0, y0, x1, y1);
+  const LatticeNoise warp(deriveSeed(seed, kSeedRippleWarp), 0.6, x0, y0, x1, y1);
+  const LatticeNoise warp2(deriveSeed(seed, kSeedRippleWarp2), 2.0, x0, y0, x1, y1);
+  const LatticeNoise strength(deriveSeed(seed, kSeedRippleStrength), 4.0, x0, y0, x1, y1);
 
   cv::Mat albedo(n, n, CV_32FC1);
   for (int r = 0; r < n; ++r) {
@@ -270,8 +336,8 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
   // Objects on the hash grid, drawn in global cell order so overlaps resolve identically in
   // every tile. Each cell holds at most one object, more likely where the density is high.
   TileCanvas canvas(albedo, x0, y0, s);
-  const uint64_t object_seed = deriveSeed(seed_, kSeedObjects);
-  const uint64_t surface_seed = deriveSeed(seed_, kSeedRockSurface);
+  const uint64_t object_seed = deriveSeed(seed, kSeedObjects);
+  const uint64_t surface_seed = deriveSeed(seed, kSeedRockSurface);
   const auto cx0 = static_cast<int64_t>(std::floor((x0 - kMaxObjectExtent) / kObjectCell));
   const auto cx1 = static_cast<int64_t>(std::floor((x1 + kMaxObjectExtent) / kObjectCell));
   const auto cy0 = static_cast<int64_t>(std::floor((y0 - kMaxObjectExtent) / kObjectCell));
@@ -281,7 +347,7 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
       Rng rng(hashCoords(object_seed, cx, cy));
       const double ax = (static_cast<double>(cx) + rng.uniform()) * kObjectCell;
       const double ay = (static_cast<double>(cy) + rng.uniform()) * kObjectCell;
-      const double occupancy = 0.08 + 0.72 * featureDensity(ax, ay);
+      const double occupancy = 0.08 + 0.72 * featureDensityOf(seed, ax, ay);
       if (rng.uniform() >= occupancy) continue;
       const double kind = rng.uniform();
       if (kind < 0.30) {
@@ -296,16 +362,7 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
     }
   }
 
-  auto tile = std::make_shared<SeabedTile>();
-  tile->tile_x = tile_x;
-  tile->tile_y = tile_y;
-  tile->levels.resize(params_.levels);
-  albedo.convertTo(tile->levels[0], CV_8UC1, 255.0);  // saturating, rounded
-  for (int level = 1; level < params_.levels; ++level) {
-    const cv::Mat& finer = tile->levels[level - 1];
-    cv::resize(finer, tile->levels[level], cv::Size(finer.cols / 2, finer.rows / 2), 0, 0, cv::INTER_AREA);
-  }
-  return tile;
+  return albedo;
 }
 
 std::shared_ptr<const SeabedTile> SeabedTexture::tile(int64_t tile_x, int64_t tile_y) const {

@@ -155,6 +155,14 @@ void SimOptions::validate() const {
   requireInRange("--terrain-rock-height-m", terrain.rock_height_m, 0.0, 0.4, "m");
   requireInRange("--terrain-rock-density", terrain.rock_density, 0.0, 0.1, "per m^2");
   requireInRange("--depth-hold", depth_hold_z, 1.0, 100.0, "m");
+  if (!std::isfinite(mission.start_along_lap_m) || mission.start_along_lap_m < 0.0)
+    throw argError("--start-along-lap-m", "must be >= 0 m");
+  requireInRange("--altitude-offset-m", mission.altitude_offset_m, -1.0, 3.0, "m");
+  if (depth_hold_z && mission.altitude_offset_m != 0.0)
+    throw argError("--altitude-offset-m", "conflicts with --depth-hold (it offsets the altitude hold)");
+  requireInRange("--turbidity", mission.turbidity, 1.0, 8.0, "(x the clear water's)");
+  requireInRange("--lamp-power", mission.lamp_power, 0.1, 3.0, "(x the default lamp's)");
+  requireInRange("--seabed-change", mission.seabed_change, 0.0, 0.6, "(fraction of the area)");
   requireInRange("--sonar-max-range", sonar_max_range, 1.0, 100.0, "m");
   requireInRange("--camera-rate-hz", rates.camera, 5.0, 30.0, "Hz");
   requireInRange("--imu-rate-hz", rates.imu, 100.0, 1000.0, "Hz");
@@ -289,6 +297,10 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       altitude_hold = true;
       continue;
     }
+    if (flag == "--reverse-lap") {
+      options.mission.reverse_lap = true;
+      continue;
+    }
     if (flag == "--hold-plane-only") {
       if (options.depth_hold_z) throw argError(flag, "conflicts with --depth-hold");
       options.hold_plane_only = true;
@@ -397,6 +409,16 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       options.mag_hard_iron_ut = parseDouble(flag, value);
     } else if (flag == "--mag-soft-iron-pct") {
       options.mag_soft_iron_pct = parseDouble(flag, value);
+    } else if (flag == "--start-along-lap-m") {
+      options.mission.start_along_lap_m = parseDouble(flag, value);
+    } else if (flag == "--altitude-offset-m") {
+      options.mission.altitude_offset_m = parseDouble(flag, value);
+    } else if (flag == "--turbidity") {
+      options.mission.turbidity = parseDouble(flag, value);
+    } else if (flag == "--lamp-power") {
+      options.mission.lamp_power = parseDouble(flag, value);
+    } else if (flag == "--seabed-change") {
+      options.mission.seabed_change = parseDouble(flag, value);
     } else if (flag == "--camera-rate-hz") {
       options.rates.camera = parseDouble(flag, value);
     } else if (flag == "--imu-rate-hz") {
@@ -521,6 +543,18 @@ Seabed (default: flat, z = 0; a preset, then any term overridden):
                            under the vehicle unfollowed (its altitude then varies by the relief)
   --depth-hold Z           hold the body at world height Z [m] instead (the seabed's mean is z = 0;
                            an error if the altitude falls below 1 m anywhere)
+
+Repeat mission (a saved map's world seed flown again; default: as the teach run):
+  --start-along-lap-m S    start S m along the scenario's lap (any S >= 0, modulo the lap's length:
+                           the tank's is 136.5 m, the field's 412 m), heading along it
+  --reverse-lap            fly the lap the other way round (every leg in the opposite direction)
+  --altitude-offset-m D    fly D m higher (or lower), -1 to 3 (the default profile: 2.1-4.9 m)
+  --turbidity K            murkier water, 1-8: attenuation and the backscatter haze's build-up K
+                           times the clear water's (the exposure stays set for 2 m of clear water)
+  --lamp-power P           the lamp's light x P, 0.1-3 (a dimmer or brighter lamp, same exposure)
+  --seabed-change F        a fraction F (0-0.6) of the seabed re-laid since the survey: in patches
+                           about 2 m across the sand, shells, pebbles, weed and rocks are another
+                           seabed's (the patches are the dive's: trajectory seed)
 
 Pressure sensor (default: none):
   --pressure               a depth sensor on /pressure (sensor_msgs/FluidPressure)

@@ -30,6 +30,7 @@ enum : uint64_t {
   kStreamOtherCoilSites = 0xc02a,    // world seed: which point at the spacing holds each further coil
   kStreamOtherCoilPhases = 0xc02f,   // trajectory seed: the further coils' free-running phases
   kStreamMagnetometerIron = 0x1e0f,  // the vehicle's iron belongs to the rig: rig seed
+  kStreamSeabedChange = 0x5ed0,      // trajectory seed: the patches re-laid before this dive
 };
 
 constexpr double kMinAltitude = 1.0;              // [m] the designed trajectory never comes closer to the seabed
@@ -214,8 +215,22 @@ SimSetup buildSimSetup(const SimOptions& options) {
   trajectory_params.terrain = resolveTerrain(options.terrain, options.worldSeed());
   trajectory_params.depth_hold_z = options.depth_hold_z;
   trajectory_params.hold_plane_only = options.hold_plane_only;
+  trajectory_params.start_along_lap_m = options.mission.start_along_lap_m;
+  trajectory_params.reverse_lap = options.mission.reverse_lap;
+  trajectory_params.altitude_offset_m = options.mission.altitude_offset_m;
   setup.trajectory = Trajectory::design(trajectory_params);
   setup.terrain = std::make_shared<const SeabedTerrain>(trajectory_params.terrain);
+
+  // The water and the lamp of this dive. Murkier water attenuates K times more and its haze builds
+  // up K times closer (the same particles scatter back), at the same saturated level; the camera's
+  // exposure stays set for the clear water's reference range (a fixed survey exposure).
+  const UnderwaterOptics clear_water;
+  const double turbidity = options.mission.turbidity;
+  setup.optics.attenuation = clear_water.attenuation * turbidity;
+  setup.optics.backscatter_range = clear_water.backscatter_range / turbidity;
+  setup.optics.lamp_power = options.mission.lamp_power;
+  setup.texture.change_fraction = options.mission.seabed_change;
+  setup.texture.change_seed = deriveSeed(options.seed, kStreamSeabedChange);
 
   setup.imu = ImuNoiseParams::mti630();
   setup.imu.rate_hz = options.rates.imu;
@@ -385,6 +400,7 @@ SimSetup buildSimSetup(const SimOptions& options) {
   truth.terrain = setup.terrain->params();
   truth.depth_hold_z = options.depth_hold_z;
   truth.hold_plane_only = options.hold_plane_only;
+  truth.mission = options.mission;
   if (cfg.pressure) {
     PressureTruth pressure;
     // Water depth above the mean seabed: about 10 m in the tank, 30 m at the field site.

@@ -228,6 +228,13 @@ bool anySpanContains(const std::vector<TimeSpan>& spans, double t) {
   return false;
 }
 
+bool MissionConditions::isDefault() const {
+  const MissionConditions none;
+  return start_along_lap_m == none.start_along_lap_m && reverse_lap == none.reverse_lap &&
+         altitude_offset_m == none.altitude_offset_m && turbidity == none.turbidity && lamp_power == none.lamp_power &&
+         seabed_change == none.seabed_change;
+}
+
 std::string SimTruth::toYaml() const {
   std::ostringstream os;
   os << "# Simulation truth (evaluation only: the estimator never reads it).\n"
@@ -279,6 +286,15 @@ std::string SimTruth::toYaml() const {
   }
   if (depth_hold_z) os << "depth_hold_z: " << num(*depth_hold_z) << "  # [m] the body held this world z (depth hold)\n";
   if (hold_plane_only) os << "hold_plane_only: true  # the altitude hold followed the seabed's plane, not its relief\n";
+  if (!mission.isDefault()) {
+    os << "mission:  # a repeat mission's conditions (vims_sim --start-along-lap-m ... --seabed-change)\n"
+       << "  start_along_lap_m: " << num(mission.start_along_lap_m) << "\n"
+       << "  reverse_lap: " << (mission.reverse_lap ? "true" : "false") << "\n"
+       << "  altitude_offset_m: " << num(mission.altitude_offset_m) << "\n"
+       << "  turbidity: " << num(mission.turbidity) << "\n"
+       << "  lamp_power: " << num(mission.lamp_power) << "\n"
+       << "  seabed_change: " << num(mission.seabed_change) << "\n";
+  }
   if (camera_extrinsic_error) {
     os << "camera_extrinsic_error:  # NAME.yaml's T_b_c is the true one turned by rotation_deg and moved by "
           "translation_m\n"
@@ -332,7 +348,8 @@ SimTruth SimTruth::load(const std::string& path) {
                           "other_coils",      "geomagnetic",       "imu_initial_bias",
                           "dropouts",         "terrain",           "pressure",
                           "depth_hold_z",     "hold_plane_only",   "camera_extrinsic_error",
-                          "magnetic_anomaly", "thrusters",         "magnetometer_iron"});
+                          "magnetic_anomaly", "thrusters",         "magnetometer_iron",
+                          "mission"});
   SimTruth t;
   t.generator = root.get<std::string>("generator");
   t.scenario = root.get<std::string>("scenario");
@@ -382,6 +399,17 @@ SimTruth SimTruth::load(const std::string& path) {
   if (root.has("pressure")) t.pressure = readPressure(root);
   if (root.has("depth_hold_z")) t.depth_hold_z = root.get<double>("depth_hold_z");
   if (root.has("hold_plane_only")) t.hold_plane_only = root.get<bool>("hold_plane_only");
+  if (root.has("mission")) {
+    const ConfigReader m = root.child("mission");
+    m.rejectUnknownKeys(
+        {"start_along_lap_m", "reverse_lap", "altitude_offset_m", "turbidity", "lamp_power", "seabed_change"});
+    t.mission.start_along_lap_m = m.get<double>("start_along_lap_m");
+    t.mission.reverse_lap = m.get<bool>("reverse_lap");
+    t.mission.altitude_offset_m = m.get<double>("altitude_offset_m");
+    t.mission.turbidity = m.get<double>("turbidity");
+    t.mission.lamp_power = m.get<double>("lamp_power");
+    t.mission.seabed_change = m.get<double>("seabed_change");
+  }
   if (root.has("camera_extrinsic_error")) {
     const ConfigReader e = root.child("camera_extrinsic_error");
     e.rejectUnknownKeys({"rotation_deg", "translation_m", "true_T_b_c"});

@@ -33,7 +33,7 @@ struct ScenarioDesign {
 
 ScenarioDesign scenarioDesign(Scenario scenario) {
   ScenarioDesign d;
-  d.lap = scenarioLapWaypoints(scenario);
+  d.lap = scenarioLapWaypoints(scenario);  // missionLap() turns it into the mission's lap
   if (scenario == Scenario::kTank) {
     // About 130 m per lap in about 750 s with a maximum of 0.38 m/s, like the reference tank test.
     d.corner_radius = 2.0;
@@ -197,12 +197,13 @@ class SpeedProfile {
 struct AltitudeProfile {
   static constexpr double kMean = 3.5;
   static constexpr double kAmp1 = 1.1, kAmp2 = 0.3;
+  double offset = 0.0;                // [m] TrajectoryParams::altitude_offset_m
   double wave1 = 0.0, wave2 = 0.0;    // [m] along-path wavelengths
   double phase1 = 0.0, phase2 = 0.0;  // [rad]
 
   /// Altitude at arc length s.
   double at(double s) const {
-    return kMean + kAmp1 * std::sin(2.0 * M_PI * s / wave1 + phase1) +
+    return kMean + offset + kAmp1 * std::sin(2.0 * M_PI * s / wave1 + phase1) +
            kAmp2 * std::sin(2.0 * M_PI * s / wave2 + phase2);
   }
   /// d(altitude) / ds.
@@ -349,6 +350,34 @@ std::vector<Eigen::Vector2d> scenarioLapWaypoints(Scenario scenario) {
           {5, 10},    {34, 10},  {34, -20}, {-37, -20}, {-37, -24}};
 }
 
+std::vector<Eigen::Vector2d> missionLap(const std::vector<Eigen::Vector2d>& lap, double start_along_m, bool reverse) {
+  if (lap.size() < 2 || (start_along_m == 0.0 && !reverse)) return lap;
+  std::vector<Eigen::Vector2d> pattern = lap;
+  if (reverse) std::reverse(pattern.begin(), pattern.end());
+  // The lap is a closed pattern: its last waypoint leads back to its first.
+  const size_t n = pattern.size();
+  double length = 0.0;
+  for (size_t i = 0; i < n; ++i) length += (pattern[(i + 1) % n] - pattern[i]).norm();
+  double s = std::fmod(start_along_m, length);
+  if (s < 0.0) s += length;
+  size_t edge = 0;
+  for (; edge + 1 < n; ++edge) {
+    const double edge_length = (pattern[edge + 1] - pattern[edge]).norm();
+    if (s < edge_length) break;
+    s -= edge_length;
+  }
+  const Eigen::Vector2d& a = pattern[edge];
+  const Eigen::Vector2d& b = pattern[(edge + 1) % n];
+  const double edge_length = (b - a).norm();
+  std::vector<Eigen::Vector2d> mission{a + (b - a) * (edge_length > 0.0 ? std::min(s / edge_length, 1.0) : 0.0)};
+  for (size_t k = 1; k <= n; ++k) {
+    const Eigen::Vector2d& w = pattern[(edge + k) % n];
+    if ((w - mission.back()).norm() > 1e-9) mission.push_back(w);
+  }
+  if (mission.size() > 1 && (mission.back() - mission.front()).norm() < 1e-9) mission.pop_back();
+  return mission;
+}
+
 Eigen::Quaterniond Trajectory::eulerToQuaternion(double yaw, double pitch, double roll) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
                             Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
@@ -362,7 +391,13 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
   }
   if (params.margin < 0.0) throw std::invalid_argument("trajectory margin must be >= 0");
 
-  const ScenarioDesign design = scenarioDesign(params.scenario);
+  if (params.altitude_offset_m < -1.0 || params.altitude_offset_m > 3.0) {
+    throw std::invalid_argument("altitude offset must be in [-1, 3] m");
+  }
+  if (!std::isfinite(params.start_along_lap_m)) throw std::invalid_argument("start along the lap must be finite");
+
+  ScenarioDesign design = scenarioDesign(params.scenario);
+  design.lap = missionLap(design.lap, params.start_along_lap_m, params.reverse_lap);
   // Independent streams per design element, so a short sequence is exactly the start of a
   // long one with the same seed (the number of laps drawn does not shift the other draws).
   // The order of the draws from `rng` below (cruise noise, altitude, attitude) is part of
@@ -375,7 +410,8 @@ Trajectory Trajectory::design(const TrajectoryParams& params) {
   // quintic spline this makes the spline exactly constant up to static_start and moving after.
   const double motion_start = params.static_start + 2.0 * kKnotSpacing;
   const SpeedProfile speed(design, path, rng.next(), motion_start);
-  const AltitudeProfile altitude = drawAltitudeProfile(rng);
+  AltitudeProfile altitude = drawAltitudeProfile(rng);
+  altitude.offset = params.altitude_offset_m;
   const AttitudeMotion attitude(rng);
   SplineControlPoints control = designControlPoints(params, path, speed, altitude, attitude);
 

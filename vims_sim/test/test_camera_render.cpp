@@ -127,6 +127,47 @@ TEST(SeabedTexture, HasSparseAndDenseStretches) {
   EXPECT_GT(dense, n / 20);
 }
 
+TEST(SeabedTexture, AChangedSeabedDiffersOnItsFractionOfTheAreaOnly) {
+  // A repeat mission's re-laid patches: about the asked fraction of the area, another seabed
+  // there, and exactly the world's own seabed everywhere else.
+  SeabedTextureParams changed_params;
+  changed_params.change_fraction = 0.2;
+  changed_params.change_seed = 9;
+  const SeabedTexture world(5), changed(5, changed_params);
+  int inside = 0, n = 0;
+  for (double x = -40; x < 40; x += 0.25) {
+    for (double y = -40; y < 40; y += 0.25) {
+      inside += changed.changeWeight(x, y) > 0.5;
+      ++n;
+      ASSERT_EQ(world.changeWeight(x, y), 0.0);
+    }
+  }
+  EXPECT_NEAR(static_cast<double>(inside) / n, 0.2, 0.06);
+  cv::Mat a(512, 512, CV_8UC1), b(512, 512, CV_8UC1);
+  int same_outside = 0, outside = 0, differ_inside = 0, fully_inside = 0;
+  for (int64_t tile = -3; tile <= 3; ++tile) {
+    world.fillPatch(0, tile * 512, 2 * 512, a);
+    changed.fillPatch(0, tile * 512, 2 * 512, b);
+    const double s = world.texelSize(0);
+    for (int r = 0; r < 512; r += 4) {
+      for (int c = 0; c < 512; c += 4) {
+        const double w = changed.changeWeight((tile * 512 + c + 0.5) * s, (2 * 512 + r + 0.5) * s);
+        if (w == 0.0) {
+          ++outside;
+          same_outside += a.at<uint8_t>(r, c) == b.at<uint8_t>(r, c);
+        } else if (w == 1.0) {
+          ++fully_inside;
+          differ_inside += a.at<uint8_t>(r, c) != b.at<uint8_t>(r, c);
+        }
+      }
+    }
+  }
+  ASSERT_GT(outside, 1000);
+  ASSERT_GT(fully_inside, 200);
+  EXPECT_EQ(same_outside, outside);
+  EXPECT_GT(differ_inside, 0.8 * fully_inside);
+}
+
 TEST(SeabedRenderer, DarkerWhenHigherAndBlackWhenTheLampFails) {
   auto texture = std::make_shared<SeabedTexture>(2);
   const SeabedRenderer renderer(testCalibration(), texture);
@@ -150,6 +191,31 @@ TEST(SeabedRenderer, DarkerWhenHigherAndBlackWhenTheLampFails) {
   EXPECT_EQ(black.type(), CV_8UC1);
   EXPECT_EQ(black.cols, 640);
   EXPECT_EQ(black.rows, 480);
+}
+
+TEST(SeabedRenderer, MurkyWaterAndADimLampLoseContrast) {
+  // vims_sim --turbidity and --lamp-power: the seabed's contrast (the spread of the image) falls
+  // with murkier water and a dimmer lamp.
+  auto texture = std::make_shared<SeabedTexture>(2);
+  UnderwaterOptics murky, dim;
+  murky.attenuation *= 4.0;
+  murky.backscatter_range /= 4.0;
+  dim.lamp_power = 0.3;
+  const SeabedRenderer clear_renderer(testCalibration(), texture), murky_renderer(testCalibration(), texture, murky),
+      dim_renderer(testCalibration(), texture, dim);
+  auto meanAndSpread = [&](const SeabedRenderer& renderer) {
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(renderer.render(downwardCamera(3.0, 1.0, 4.0), 1), mean, stddev);
+    return std::make_pair(mean[0], stddev[0]);
+  };
+  const auto clear = meanAndSpread(clear_renderer), turbid = meanAndSpread(murky_renderer),
+             dimmed = meanAndSpread(dim_renderer);
+  // Measured at 4 m (grey levels, after the camera's response curve): clear mean 59.7, spread
+  // 17.3; turbidity 4: 37.3, 10.6; lamp at 0.3: 24.5, 9.7.
+  EXPECT_LT(turbid.second, 0.8 * clear.second);
+  EXPECT_LT(dimmed.second, 0.75 * clear.second);
+  EXPECT_LT(dimmed.first, 0.6 * clear.first);
+  EXPECT_GT(turbid.first, 0.3 * clear.first);
 }
 
 TEST(SeabedRenderer, DeterministicAndThreadSafe) {

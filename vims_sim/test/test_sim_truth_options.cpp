@@ -712,3 +712,48 @@ TEST(SimSetup, MagnetometerIronIsSeededByTheRigMeasuredAndKeptInTheTruthOnly) {
 }  // namespace
 }  // namespace sim
 }  // namespace vims
+
+TEST(SimCommandLine, RepeatMissionConditionsParseReachTheSetUpAndTheTruthOnly) {
+  const std::vector<std::string> base = {"--scenario", "tank", "--duration", "20", "--seed", "4", "--out", "d"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = base;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  const auto options = parseSimCommandLine(
+      with({"--start-along-lap-m", "40", "--reverse-lap", "--altitude-offset-m", "1.5", "--turbidity", "3",
+            "--lamp-power", "0.5", "--seabed-change", "0.2", "--world-seed", "3", "--rig-seed", "3"}));
+  ASSERT_TRUE(options.has_value());
+  EXPECT_EQ(options->mission.start_along_lap_m, 40.0);
+  EXPECT_TRUE(options->mission.reverse_lap);
+  EXPECT_EQ(options->mission.altitude_offset_m, 1.5);
+  EXPECT_EQ(options->mission.turbidity, 3.0);
+  EXPECT_EQ(options->mission.lamp_power, 0.5);
+  EXPECT_EQ(options->mission.seabed_change, 0.2);
+
+  const SimSetup setup = buildSimSetup(*options);
+  const UnderwaterOptics clear;
+  EXPECT_DOUBLE_EQ(setup.optics.attenuation, 3.0 * clear.attenuation);
+  EXPECT_DOUBLE_EQ(setup.optics.backscatter_range, clear.backscatter_range / 3.0);
+  EXPECT_EQ(setup.optics.reference_attenuation, clear.reference_attenuation);  // the exposure stays
+  EXPECT_EQ(setup.optics.lamp_power, 0.5);
+  EXPECT_EQ(setup.texture.change_fraction, 0.2);
+  // The sequence YAML does not say any of it; the truth file does, and reads back.
+  SimOptions plain = *options;
+  plain.mission = MissionConditions();
+  EXPECT_EQ(setup.config.toYaml(), buildSimSetup(plain).config.toYaml());
+  EXPECT_EQ(buildSimSetup(plain).truth.toYaml().find("mission:"), std::string::npos);
+  const SimTruth loaded = savedAndLoaded(setup.truth, "vims_truth_mission");
+  EXPECT_EQ(loaded.mission.start_along_lap_m, 40.0);
+  EXPECT_TRUE(loaded.mission.reverse_lap);
+  EXPECT_EQ(loaded.mission.seabed_change, 0.2);
+  EXPECT_EQ(loaded.toYaml(), setup.truth.toYaml());
+
+  EXPECT_NE(errorOf(with({"--altitude-offset-m", "4"})).find("--altitude-offset-m"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--depth-hold", "5", "--altitude-offset-m", "1"})).find("--altitude-offset-m"),
+            std::string::npos);
+  EXPECT_NE(errorOf(with({"--turbidity", "0.5"})).find("--turbidity"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--lamp-power", "0"})).find("--lamp-power"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--seabed-change", "0.9"})).find("--seabed-change"), std::string::npos);
+  EXPECT_NE(errorOf(with({"--start-along-lap-m", "-1"})).find("--start-along-lap-m"), std::string::npos);
+}

@@ -354,3 +354,58 @@ TEST(Trajectory, DepthHoldKeepsAConstantHeight) {
   const Trajectory a = Trajectory::design(flat), b = Trajectory::design(plain);
   for (double t = 0.0; t < 300.0; t += 1.3) ASSERT_EQ(a.sample(t).p_w_b, b.sample(t).p_w_b);
 }
+
+TEST(Trajectory, ARepeatMissionStartsElsewhereOnTheSameLapAndFliesItEitherWay) {
+  const std::vector<Eigen::Vector2d> lap = scenarioLapWaypoints(Scenario::kTank);
+  EXPECT_EQ(missionLap(lap, 0.0, false), lap);
+  auto closedLength = [](const std::vector<Eigen::Vector2d>& w) {
+    double length = 0.0;
+    for (size_t i = 0; i < w.size(); ++i) length += (w[(i + 1) % w.size()] - w[i]).norm();
+    return length;
+  };
+  auto distanceToLap = [&](const Eigen::Vector2d& p) {
+    double best = 1e9;
+    for (size_t i = 0; i < lap.size(); ++i) {
+      const Eigen::Vector2d a = lap[i], b = lap[(i + 1) % lap.size()];
+      const double u = std::clamp((p - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      best = std::min(best, (a + u * (b - a) - p).norm());
+    }
+    return best;
+  };
+  const double length = closedLength(lap);
+  for (bool reverse : {false, true}) {
+    for (double start : {0.0, 17.3, 40.0, length + 5.0}) {
+      const auto mission = missionLap(lap, start, reverse);
+      EXPECT_NEAR(closedLength(mission), length, 1e-9) << start << " " << reverse;
+      for (const auto& w : mission) EXPECT_LT(distanceToLap(w), 1e-9);
+    }
+  }
+  // Starting 5 m along the first leg (west to east at y = -6.3), forwards and backwards.
+  EXPECT_LT((missionLap(lap, 5.0, false)[0] - (lap[0] + Eigen::Vector2d(5.0, 0.0))).norm(), 1e-9);
+  EXPECT_GT(missionLap(lap, 5.0, false)[1].x(), lap[0].x() + 5.0);
+
+  TrajectoryParams p;
+  p.duration = 120.0;
+  p.seed = 4;
+  const Trajectory base = Trajectory::design(p);
+  p.start_along_lap_m = 40.0;
+  p.reverse_lap = true;
+  p.altitude_offset_m = 1.5;
+  const Trajectory repeat = Trajectory::design(p);
+  const auto mission = missionLap(lap, 40.0, true);
+  const TrajectoryState at_rest = repeat.sample(0.0);
+  EXPECT_LT((at_rest.p_w_b.head<2>() - mission[0]).norm(), 1e-6);
+  EXPECT_GT((at_rest.p_w_b.head<2>() - base.sample(0.0).p_w_b.head<2>()).norm(), 5.0);
+  // It sets off along its first leg.
+  const Eigen::Vector2d leg = (mission[1] - mission[0]).normalized();
+  const TrajectoryState moving = repeat.sample(15.0);
+  EXPECT_GT(moving.v_w_b.head<2>().normalized().dot(leg), std::cos(20.0 * kDeg));
+  // The altitude profile is the base one raised by the offset (same seed, same arc lengths).
+  TrajectoryParams level = p;
+  level.altitude_offset_m = 0.0;
+  const Trajectory unraised = Trajectory::design(level);
+  for (double t : {0.0, 30.0, 77.0, 119.0})
+    EXPECT_NEAR(repeat.sample(t).p_w_b.z() - unraised.sample(t).p_w_b.z(), 1.5, 1e-9) << t;
+  p.altitude_offset_m = 3.5;
+  EXPECT_THROW(Trajectory::design(p), std::invalid_argument);
+}

@@ -336,6 +336,17 @@ struct PoseGraphManagerOptions {
   /// m; the repeat in it 1.05x the teach run's), extend and localisation hold it where the teach
   /// run left it (1.12x; docs/benchmarks.md, "Teach and repeat").
   MapMode map_mode = MapMode::kMapping;
+  /// Localising (map_mode localisation), once relocalised and while loops into the map keep
+  /// coming (the newest within localisation_lost_after_s of a keyframe), a keyframe is described
+  /// and queried only when this long [s] has passed since the last one that was; the others are
+  /// odometry nodes without a query. The run stores no place, so a skipped query loses nothing
+  /// but a loop edge among hundreds. 0: every keyframe queries, as in the other modes. 2 s (the
+  /// 300 s tank repeat): the pose graph's time 0.30x mapping mode's, the ATE in the map's frame
+  /// +2 % (docs/benchmarks.md, "Teach and repeat").
+  double localisation_query_interval_s = 2.0;
+  /// [s] no loop into the map for this long (by keyframe time; a query waits up to
+  /// magnetic_wait_s for its signature): every keyframe queries again until one is found.
+  double localisation_lost_after_s = 5.0;
   /// Vocabulary per descriptor type (relative paths are relative to the package root; the
   /// caller resolves them, see resolveVocabularyPath). The mode picks one.
   std::string vocabulary_orb = "config/vocabulary/orb_k8l4.vocab";
@@ -389,9 +400,10 @@ struct PoseGraphManagerOptions {
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<PoseGraphManagerOptions>& optionTable();
 
-  /// Keys: mode, map_mode, vocabulary_orb, vocabulary_brief, synchronous, optimise_every_n_keyframes,
-  /// magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s, session_link_*,
-  /// and the mappings geomagnetic_gate, vehicle_field, features, magnetic_submaps, loop_closing, pose_graph.
+  /// Keys: mode, map_mode, localisation_query_interval_s, localisation_lost_after_s, vocabulary_orb, vocabulary_brief,
+  /// synchronous, optimise_every_n_keyframes, magnetic_wait_s, geomagnetic_max_dt_s, signature_max_extrapolation_s,
+  /// session_link_*, and the mappings geomagnetic_gate, vehicle_field, features, magnetic_submaps, loop_closing,
+  /// pose_graph.
   static PoseGraphManagerOptions fromReader(const ConfigReader& reader);
   void validate() const;
   std::string toYaml() const;

@@ -67,6 +67,9 @@ struct PoseGraphManagerStats {
   /// Keyframes whose visual submap was not stored because the run was localising (MapMode);
   /// they still ran their loop query.
   size_t localisation_keyframes = 0;
+  /// Keyframes that ran no loop query because the run was localised and its loops into the map
+  /// kept coming (PoseGraphManagerOptions::localisation_query_interval_s).
+  size_t localisation_skipped_queries = 0;
   size_t loaded_keyframes = 0;
   size_t sessions = 0;  ///< of this run
   size_t loop_queries = 0;

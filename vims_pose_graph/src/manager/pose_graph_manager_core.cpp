@@ -90,7 +90,14 @@ KeyframeDescription PoseGraphManagerCore::describe(const KeyframeData& kf) {
                                               vocabulary_.get());
 }
 
-void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescription description) {
+bool PoseGraphManagerCore::wantsQuery(double t) const {
+  if (map_mode_ != MapMode::kLocalisation || !stats_.relocalised || !(options_.localisation_query_interval_s > 0.0))
+    return true;
+  if (!(t - stats_.last_loop_into_map_t < options_.localisation_lost_after_s)) return true;  // lost: search
+  return !(t - last_queried_keyframe_t_ < options_.localisation_query_interval_s);
+}
+
+void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescription description, bool queried) {
   VisualSubmap& submap = description.submap;
   if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) {
     ++stats_.keyframes_rejected;
@@ -177,7 +184,10 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
   run_nodes_.push_back(id);
   latest_keyframe_t_ = kf.t;
   ++stats_.keyframes;
-  if (!has_visual) {
+  if (queried) last_queried_keyframe_t_ = kf.t;
+  if (!queried) {
+    ++stats_.localisation_skipped_queries;
+  } else if (!has_visual) {
     ++stats_.empty_keyframes;
     logger_->warnThrottled(kComponent, "empty_keyframe", kf.t, 5.0,
                            VIMS_STR("keyframe at t=" << kf.t << " has no usable image corners (empty or dark image):"

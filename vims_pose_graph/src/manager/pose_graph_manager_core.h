@@ -54,8 +54,12 @@ class PoseGraphManagerCore {
   /// without the map lock, but from one thread only (the describer keeps OpenCV detector objects).
   /// Empty for a keyframe addKeyframe will drop (non-finite time or invalid pose).
   KeyframeDescription describe(const KeyframeData& keyframe);
-  /// See PoseGraphManager::feedKeyframe; `description` from describe(keyframe).
-  void addKeyframe(const KeyframeData& keyframe, KeyframeDescription description);
+  /// Whether a keyframe at time t should be described and queried
+  /// (PoseGraphManagerOptions::localisation_query_interval_s); needs the map lock.
+  bool wantsQuery(double t) const;
+  /// See PoseGraphManager::feedKeyframe; `description` from describe(keyframe), or none when
+  /// wantsQuery said no (`queried` false: an odometry node only).
+  void addKeyframe(const KeyframeData& keyframe, KeyframeDescription description, bool queried = true);
   void addSignature(const SignatureWindow& window);
   void addGeomagnetic(double t, const Eigen::Vector3d& field_body);
   /// End of data: processes every waiting keyframe and signature, closes the open magnetic
@@ -180,6 +184,7 @@ class PoseGraphManagerCore {
   double latest_signature_t_ = -1e300;
   double latest_geomagnetic_t_ = -1e300;
   double latest_keyframe_t_ = -1e300;
+  double last_queried_keyframe_t_ = -1e300;
   std::vector<LoopAttempt> attempts_;  ///< not yet taken (takeNewLoopAttempts)
   std::optional<DetectionResult> last_detection_;
   PoseGraphManagerStats stats_;  ///< all but `optimisations` (the scheduler counts those)

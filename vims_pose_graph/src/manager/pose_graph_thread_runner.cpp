@@ -27,10 +27,15 @@ int triggerRank(OptimisationTrigger trigger) {
 void runEvent(PoseGraphManagerCore& core, std::mutex& state_mutex, const PoseGraphEvent& event) {
   if (const auto* kf = std::get_if<KeyframeData>(&event)) {
     // Description is the expensive part (ORB, BoW, replication); it needs no map state, so it
-    // runs before taking the lock.
-    KeyframeDescription description = core.describe(*kf);
+    // runs without the lock (only whether it is wanted does).
+    bool query = true;
+    {
+      std::lock_guard<std::mutex> lk(state_mutex);
+      query = core.wantsQuery(kf->t);
+    }
+    KeyframeDescription description = query ? core.describe(*kf) : KeyframeDescription();
     std::lock_guard<std::mutex> lk(state_mutex);
-    core.addKeyframe(*kf, std::move(description));
+    core.addKeyframe(*kf, std::move(description), query);
   } else if (const auto* w = std::get_if<SignatureWindow>(&event)) {
     std::lock_guard<std::mutex> lk(state_mutex);
     core.addSignature(*w);

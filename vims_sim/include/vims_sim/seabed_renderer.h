@@ -35,6 +35,8 @@ struct UnderwaterOptics {
   double reference_range = 2.0;          ///< [m] range at which ...
   double reference_signal = 1.3;         ///< ... a white seabed on the optical axis gives this linear signal
                                          ///< (1 = full well: exposure set so sand, albedo ~0.5, is well exposed at 2 m)
+  double reference_attenuation = 0.06;   ///< [1/m] ... in water of this attenuation (the exposure's set-up)
+  double lamp_power = 1.0;               ///< the lamp's light (and its haze) relative to the reference
   double blur_sigma_px = 0.7;            ///< optical blur [pixels]
   double full_well_electrons = 8000.0;   ///< shot noise: signal 1.0 = this many electrons
   double read_noise_electrons = 6.0;     ///< read noise [e-]

@@ -30,6 +30,11 @@ struct SeabedTextureParams {
   int tile_texels = 512;      ///< level-0 texels per tile edge (must be divisible by 2^(levels-1))
   int levels = 6;             ///< mip levels (level L has texel edge texel_size * 2^L)
   size_t cache_tiles = 160;   ///< LRU capacity (a 512-texel tile with its pyramid is ~350 kB)
+  /// The seabed changed since the world was surveyed (a repeat mission): this fraction of the
+  /// area, in patches about 2 m across placed by change_seed, carries another seabed's sand and
+  /// objects (sediment moved, objects came and went). 0: the world seed's seabed everywhere.
+  double change_fraction = 0.0;
+  uint64_t change_seed = 0;
 };
 
 /// One tile: the mip pyramid of the albedo (CV_8UC1, 255 = albedo 1). Row r, column c of level
@@ -61,6 +66,8 @@ class SeabedTexture {
 
   /// Feature density in [0, 1] at a world point (low: sparse sandy stretch).
   double featureDensity(double x, double y) const;
+  /// How much of the changed seabed shows at a world point: 0 (the world's own) to 1.
+  double changeWeight(double x, double y) const;
 
   /// Number of tiles generated so far (cache misses) and currently cached.
   size_t tilesGenerated() const;
@@ -68,6 +75,11 @@ class SeabedTexture {
 
  private:
   std::shared_ptr<const SeabedTile> generateTile(int64_t tile_x, int64_t tile_y) const;
+  /// Level-0 albedo (CV_32FC1) of one tile of the seabed of `seed`.
+  cv::Mat drawAlbedo(uint64_t seed, int64_t tile_x, int64_t tile_y) const;
+  static double featureDensityOf(uint64_t seed, double x, double y);
+  /// The patch-noise level above which params.change_fraction of the area lies.
+  static double changeThreshold(const SeabedTextureParams& params);
 
   struct CacheEntry {
     std::shared_ptr<const SeabedTile> tile;  ///< null while being generated
@@ -76,6 +88,7 @@ class SeabedTexture {
 
   uint64_t seed_;
   SeabedTextureParams params_;
+  double change_threshold_;
   mutable std::mutex mutex_;
   mutable std::condition_variable_any generated_;
   mutable std::unordered_map<uint64_t, CacheEntry> cache_;

@@ -99,6 +99,7 @@ struct SimOptions {
   std::optional<double> depth_hold_z;  ///< [m] constant body z; unset: altitude hold
   bool hold_plane_only = false;        ///< --hold-plane-only: altitude hold ignores the rolling relief
   PressureOptions pressure;
+  MissionConditions mission;  ///< a repeat mission's differences from the teach run (default: none)
   /// [m] the sonar's range limit (the YAML's max_range); a seabed beyond it gives no echo (+inf),
   /// as over a drop-off or when the vehicle climbs off the bottom. Unset: the default sonar's.
   std::optional<double> sonar_max_range;

@@ -61,6 +61,22 @@ struct CameraExtrinsicError {
   Eigen::Isometry3d true_T_b_c = Eigen::Isometry3d::Identity();
 };
 
+/// A repeat mission over a saved map: what differs from the teach run besides the trajectory
+/// seed (defaults: nothing). Where it starts on the lap and which way it flies it, its altitude,
+/// the water and the lamp, and how much of the seabed changed since (the changed patches are the
+/// dive's: trajectory seed). vims_sim --start-along-lap-m, --reverse-lap, --altitude-offset-m,
+/// --turbidity, --lamp-power, --seabed-change.
+struct MissionConditions {
+  double start_along_lap_m = 0.0;  ///< [m] along the scenario's base lap
+  bool reverse_lap = false;        ///< the lap flown the other way round
+  double altitude_offset_m = 0.0;  ///< [m] added to the altitude profile
+  double turbidity = 1.0;          ///< attenuation and backscatter build-up x this (1: clear water)
+  double lamp_power = 1.0;         ///< lamp light x this, exposure unchanged
+  double seabed_change = 0.0;      ///< fraction of the seabed re-laid since the survey
+
+  bool isDefault() const;
+};
+
 struct SimTruth {
   std::string generator = "vims_sim";
   std::string scenario;            ///< "tank" or "field"
@@ -98,6 +114,7 @@ struct SimTruth {
   std::optional<PressureTruth> pressure;  ///< set when the sequence has a pressure sensor
   std::optional<double> depth_hold_z;     ///< [m] set when the vehicle held a constant z instead of its altitude
   bool hold_plane_only = false;           ///< the altitude hold followed the seabed's plane, not its relief
+  MissionConditions mission;              ///< written only when not the default
   /// Set when the sequence YAML's T_b_c is not the true one (vims_sim --camera-extrinsic-error-*).
   std::optional<CameraExtrinsicError> camera_extrinsic_error;
 

@@ -69,7 +69,20 @@ struct TrajectoryParams {
   /// controller, or a vehicle told to keep its depth profile over small hills): the relief then
   /// changes the altitude, as depth hold does, while the vehicle still climbs with the slope.
   bool hold_plane_only = false;
+  /// Where a mission starts and which way it flies the lap (a repeat mission of a saved map):
+  /// the path starts this far [m] along the scenario's base lap (any value; taken modulo the
+  /// lap's length), heading along it, ...
+  double start_along_lap_m = 0.0;
+  /// ... and flies the lap backwards (every leg the other way round).
+  bool reverse_lap = false;
+  /// Added to the altitude profile [m] (altitude hold; -1 to 3): a mission flown higher or lower.
+  double altitude_offset_m = 0.0;
 };
+
+/// The base lap as a mission starting `start_along_m` along it (modulo its length) and flying
+/// it backwards if `reverse`: the same closed pattern, other first waypoint and direction.
+/// (0, false) returns `lap` itself.
+std::vector<Eigen::Vector2d> missionLap(const std::vector<Eigen::Vector2d>& lap, double start_along_m, bool reverse);
 
 class Trajectory {
  public:
