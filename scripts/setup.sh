@@ -11,7 +11,7 @@ PACKAGES=(
   libceres-dev libopencv-dev libeigen3-dev libyaml-cpp-dev
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   python3-rosbag python3-roslaunch python3-rostest python3-rostopic python3-rosnode python3-rosservice
-  python3-geometry-msgs python3-sensor-msgs
+  python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-visualization-msgs
   rviz xvfb xauth imagemagick
 )
 

@@ -4,6 +4,7 @@
 // unknown mode, a save without a path, a file that is not a map, a second load) and do what
 // they can (save, load, switch the mode), which the status then shows.
 #include <gtest/gtest.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <unistd.h>
 #include <vims/LoadMap.h>
@@ -61,6 +62,9 @@ TEST(MapServices, StatusAndServicesSayWhatTheyDidAndWhy) {
   auto sub =
       nh.subscribe<vims::MapStatus>("global/map_status", 10, [&](const vims::MapStatus::ConstPtr& m) { status = *m; });
   ASSERT_TRUE(spinUntil([&] { return status.has_value(); })) << "no global/map_status";
+  std::optional<nav_msgs::Path> loaded_path;
+  auto loaded_path_sub =
+      nh.subscribe<nav_msgs::Path>("global/map_path", 10, [&](const nav_msgs::Path::ConstPtr& m) { loaded_path = *m; });
   EXPECT_EQ(status->map_mode, "mapping");
   EXPECT_FALSE(status->map_loaded);
   EXPECT_FALSE(status->relocalised);
@@ -93,6 +97,11 @@ TEST(MapServices, StatusAndServicesSayWhatTheyDidAndWhy) {
   EXPECT_TRUE(contains(garbage.response.message, "map file")) << garbage.response.message;
   const vims::LoadMap loaded = load(map_path);
   EXPECT_TRUE(loaded.response.success) << loaded.response.message;
+  // The loaded map's keyframes (none in this one) are drawn once it is loaded, not before.
+  EXPECT_FALSE(loaded_path.has_value()) << "global/map_path before a map was loaded";
+  ASSERT_TRUE(spinUntil([&] { return loaded_path.has_value(); })) << "no global/map_path after the load";
+  EXPECT_TRUE(loaded_path->poses.empty());
+  EXPECT_EQ(loaded_path->header.frame_id, "map");
   const vims::LoadMap again = load(map_path);
   EXPECT_FALSE(again.response.success);
   EXPECT_TRUE(contains(again.response.message, "only once")) << again.response.message;

@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <iterator>
+#include <iomanip>
 #include <limits>
 
+#include "vims_common/binary_file.h"
 #include "vims_common/fnv1a.h"
+#include "vims_common/timing.h"
 #include "vims_pose_graph/multiscale_map.h"
 
 namespace vims {
@@ -339,11 +341,19 @@ void MultiScaleMap::save(const std::string& path, const std::string& vocabulary_
 }
 
 void MultiScaleMap::load(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw MapFileError("map file '" + path + "': cannot be opened");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw MapFileError("map file '" + path + "': read error");
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<uint8_t> bytes;
+  try {
+    bytes = readFileBytes(path);
+  } catch (const std::runtime_error& e) {
+    throw MapFileError(std::string("map file ") + e.what());
+  }
+  const double read_s = 1e-3 * millisecondsSince(start);
   deserialize(bytes, path);
+  logger_->info(kComponent,
+                VIMS_STR(std::fixed << std::setprecision(2) << "map file '" << path
+                                    << "': " << 1e-6 * static_cast<double>(bytes.size()) << " MB loaded in "
+                                    << 1e-3 * millisecondsSince(start) << " s (" << read_s << " s of it reading)"));
 }
 
 namespace {

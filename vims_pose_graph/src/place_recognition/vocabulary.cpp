@@ -5,11 +5,11 @@
 #include <cstring>
 #include <deque>
 #include <fstream>
-#include <iterator>
 #include <limits>
 #include <random>
 #include <sstream>
 
+#include "vims_common/binary_file.h"
 #include "vims_common/fnv1a.h"
 #include "vims_common/option_table.h"
 
@@ -594,10 +594,12 @@ void BinaryVocabulary::save(const std::string& path) const {
 }
 
 BinaryVocabulary BinaryVocabulary::load(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw VocabularyFileError(path + ": cannot open vocabulary file");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw VocabularyFileError(path + ": read error");
+  std::vector<uint8_t> bytes;
+  try {
+    bytes = readFileBytes(path);
+  } catch (const std::runtime_error& e) {
+    throw VocabularyFileError(std::string("vocabulary file ") + e.what());
+  }
   return deserialize(bytes, path);
 }
 

@@ -6,6 +6,8 @@
 //             mag/geomagnetic  (sensor_msgs/MagneticField) low-passed geomagnetic field, body frame
 //             vio/odometry     (nav_msgs/Odometry) VIO odometry, republished corrected
 // Publishes   global/path         (nav_msgs/Path, latched) optimised keyframe poses in map
+//             global/map_path     (nav_msgs/Path, latched) the loaded map's keyframes in map (teach
+//                                 and repeat), again whenever a solve may have moved them
 //             global/odometry     (nav_msgs/Odometry) vio/odometry moved into map by T_map_odom
 //             global/loop_edges   (visualization_msgs/Marker, latched) LINE_LIST between loop keyframes
 //             global/map_markers  (visualization_msgs/MarkerArray, latched) magnetic submaps (discs of
@@ -130,6 +132,7 @@ class PoseGraphNode {
                 NodeSettings settings)
       : manager_(std::move(manager)), settings_(std::move(settings)) {
     path_pub_ = nh.advertise<nav_msgs::Path>("global/path", 2, true);
+    map_path_pub_ = nh.advertise<nav_msgs::Path>("global/map_path", 1, true);
     odometry_pub_ = nh.advertise<nav_msgs::Odometry>("global/odometry", 50);
     loop_edges_pub_ = nh.advertise<visualization_msgs::Marker>("global/loop_edges", 2, true);
     map_markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("global/map_markers", 2, true);
@@ -160,10 +163,11 @@ class PoseGraphNode {
     ROS_INFO_STREAM("pose graph (mode " << vims::toString(manager_->options().mode) << "): " << keyframe_sub_.getTopic()
                                         << ", " << signature_sub_.getTopic() << ", " << geomagnetic_sub_.getTopic()
                                         << ", " << odometry_sub_.getTopic() << " -> " << path_pub_.getTopic() << ", "
-                                        << odometry_pub_.getTopic() << ", " << loop_edges_pub_.getTopic() << ", "
-                                        << map_markers_pub_.getTopic() << ", " << map_status_pub_.getTopic() << ", tf "
-                                        << settings_.map_frame_id << " -> " << settings_.odom_frame_id << "; services "
-                                        << save_map_srv_.getService() << ", " << load_map_srv_.getService() << ", "
+                                        << map_path_pub_.getTopic() << ", " << odometry_pub_.getTopic() << ", "
+                                        << loop_edges_pub_.getTopic() << ", " << map_markers_pub_.getTopic() << ", "
+                                        << map_status_pub_.getTopic() << ", tf " << settings_.map_frame_id << " -> "
+                                        << settings_.odom_frame_id << "; services " << save_map_srv_.getService()
+                                        << ", " << load_map_srv_.getService() << ", "
                                         << set_map_mode_srv_.getService());
     publishMapStatus();
   }
@@ -354,7 +358,8 @@ class PoseGraphNode {
       // Keeps map -> odom current when no odometry arrives (e.g. only keyframes are recorded).
       publishMapToOdom(manager_->T_map_odom(), ros::Time(poses.back().t));
     }
-    if (!poses.empty()) publishPath(poses);
+    if (!poses.empty()) publishPath(path_pub_, poses);
+    publishLoadedMapPath();
     publishLoopEdges(manager_->loopEdges());
     publishMapMarkers(manager_->mapContents());
     publishMapStatus();
@@ -398,10 +403,25 @@ class PoseGraphNode {
     tf_broadcaster_.sendTransform(transform);
   }
 
-  void publishPath(const std::vector<vims::KeyframePose>& poses) {
+  /// The loaded map's keyframes, once after the load and again after solves (mapping mode
+  /// moves them; a held map is published once per load). The run's own are global/path.
+  void publishLoadedMapPath() {
+    const vims::RelocalisationStatus status = manager_->relocalisationStatus();
+    if (!status.map_loaded) return;
+    const size_t optimisations = manager_->stats().optimisations;
+    if (map_path_published_ && optimisations == map_path_optimisations_) return;
+    std::vector<vims::KeyframePose> loaded;
+    for (const vims::KeyframePose& pose : manager_->keyframePoses(true))
+      if (pose.loaded) loaded.push_back(pose);
+    publishPath(map_path_pub_, loaded);
+    map_path_published_ = true;
+    map_path_optimisations_ = optimisations;
+  }
+
+  void publishPath(ros::Publisher& publisher, const std::vector<vims::KeyframePose>& poses) {
     nav_msgs::Path path;
     path.header.frame_id = settings_.map_frame_id;
-    path.header.stamp = ros::Time(poses.back().t);
+    path.header.stamp = poses.empty() ? ros::Time() : ros::Time(poses.back().t);
     path.poses.reserve(poses.size());
     for (const vims::KeyframePose& pose : poses) {
       geometry_msgs::PoseStamped stamped;
@@ -410,7 +430,7 @@ class PoseGraphNode {
       stamped.pose = vims::toPoseMsg(pose.T_w_b);
       path.poses.push_back(stamped);
     }
-    path_pub_.publish(path);
+    publisher.publish(path);
   }
 
   void publishLoopEdges(const std::vector<vims::LoopEdgeInfo>& edges) {
@@ -509,6 +529,9 @@ class PoseGraphNode {
   vims::PeriodicHeapRelease heap_release_;          ///< on the wall clock
   std::unique_ptr<vims::LoopCsvWriter> loops_csv_;  ///< OUT/loops.csv when ~output_dir is set
   ros::Publisher path_pub_;
+  ros::Publisher map_path_pub_;
+  bool map_path_published_ = false;
+  size_t map_path_optimisations_ = 0;  ///< the solve count when global/map_path was last published
   ros::Publisher odometry_pub_;
   ros::Publisher loop_edges_pub_;
   ros::Publisher map_markers_pub_;
