@@ -403,8 +403,8 @@ class PoseGraphNode {
     tf_broadcaster_.sendTransform(transform);
   }
 
-  /// The loaded map's keyframes, once after the load and again after solves (mapping mode
-  /// moves them; a held map is published once per load). The run's own are global/path.
+  /// The loaded map's keyframes, after the load and again after each solve (mapping mode moves
+  /// them; a held map's come out the same). The run's own are global/path.
   void publishLoadedMapPath() {
     const vims::RelocalisationStatus status = manager_->relocalisationStatus();
     if (!status.map_loaded) return;
