@@ -252,8 +252,11 @@ double SeabedTexture::changeThreshold(const SeabedTextureParams& params) {
 
 double SeabedTexture::changeWeight(double x, double y) const {
   if (params_.change_fraction <= 0.0) return 0.0;
-  const double n = valueNoise(deriveSeed(params_.change_seed, kSeedChangeMask), kChangePatchSpacing, x, y);
-  return clamp01((n - change_threshold_) / kChangeEdge + 0.5);
+  return changeWeightOfNoise(valueNoise(deriveSeed(params_.change_seed, kSeedChangeMask), kChangePatchSpacing, x, y));
+}
+
+double SeabedTexture::changeWeightOfNoise(double noise) const {
+  return clamp01((noise - change_threshold_) / kChangeEdge + 0.5);
 }
 
 std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, int64_t tile_y) const {
@@ -263,14 +266,17 @@ std::shared_ptr<const SeabedTile> SeabedTexture::generateTile(int64_t tile_x, in
   const double y0 = static_cast<double>(tile_y * n) * s;
   cv::Mat albedo = drawAlbedo(seed_, tile_x, tile_y);
   if (params_.change_fraction > 0.0) {
-    // Re-laid patches: another seabed's sand and objects, blended over a narrow edge.
+    // Re-laid patches: another seabed's sand and objects, blended over a narrow edge (the patch
+    // noise as changeWeight's, its lattice cached for the tile).
     const cv::Mat changed = drawAlbedo(deriveSeed(params_.change_seed, kSeedChangedSeabed), tile_x, tile_y);
+    const LatticeNoise mask(deriveSeed(params_.change_seed, kSeedChangeMask), kChangePatchSpacing, x0, y0, x0 + n * s,
+                            y0 + n * s);
     for (int r = 0; r < n; ++r) {
       float* row = albedo.ptr<float>(r);
       const float* other = changed.ptr<float>(r);
       const double y = y0 + (r + 0.5) * s;
       for (int c = 0; c < n; ++c) {
-        const auto w = static_cast<float>(changeWeight(x0 + (c + 0.5) * s, y));
+        const auto w = static_cast<float>(changeWeightOfNoise(mask.at(x0 + (c + 0.5) * s, y)));
         if (w > 0.0f) row[c] += w * (other[c] - row[c]);
       }
     }

@@ -80,6 +80,8 @@ class SeabedTexture {
   static double featureDensityOf(uint64_t seed, double x, double y);
   /// The patch-noise level above which params.change_fraction of the area lies.
   static double changeThreshold(const SeabedTextureParams& params);
+  /// changeWeight for a value of the patch noise.
+  double changeWeightOfNoise(double noise) const;
 
   struct CacheEntry {
     std::shared_ptr<const SeabedTile> tile;  ///< null while being generated
