@@ -1,11 +1,13 @@
 #include "vims_eval/map_figures.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 
+#include "vims_common/timing.h"
 #include "vims_eval/cli.h"
 #include "vims_eval/cli_args.h"
 #include "vims_eval/metrics.h"
@@ -86,7 +88,7 @@ std::string writeMultiScaleMapFigure(const std::string& map_file, const std::str
   for (const MapNode& n : map.nodes()) {
     px.push_back(n.pose.p_w_b.x());
     py.push_back(n.pose.p_w_b.y());
-    if (!n.visual.empty()) vx.push_back(n.pose.p_w_b.x()), vy.push_back(n.pose.p_w_b.y());
+    if (n.hasVisualSubmap()) vx.push_back(n.pose.p_w_b.x()), vy.push_back(n.pose.p_w_b.y());
   }
   Plot2D plot(1100, 950);
   plot.setTitle("Multi-scale map: " + std::to_string(vx.size()) + " visual submaps, " +
@@ -121,12 +123,13 @@ std::string writeMultiScaleMapFigure(const std::string& map_file, const std::str
 std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map) {
   std::vector<MapGrowthRow> rows;
   rows.reserve(map.numNodes());
-  for (const MapNode& n : map.nodes()) {
+  for (PoseGraphNodeId id = 0; id < map.numNodes(); ++id) {
+    const MapNode& n = map.node(id);
     MapGrowthRow r;
     r.t = n.pose.t;
-    r.visual_submap = !n.visual.empty();
-    r.keypoints = n.visual.keypoints.size();
-    r.bytes = visualSubmapMemoryBytes(n.visual);
+    r.visual_submap = n.hasVisualSubmap();
+    r.keypoints = n.num_keypoints;
+    r.bytes = visualSubmapMemoryBytes(*map.visualSubmap(id)) + n.bow.entries.capacity() * sizeof(BowEntry);
     rows.push_back(r);
   }
   return rows;
@@ -137,7 +140,9 @@ int runMapSizeCli(const std::vector<std::string>& args, std::ostream& out, std::
   const std::string map_file = a.required("map", "map-size");
   const std::string descriptor = a.get("descriptor", "orb");
   if (descriptor != "orb" && descriptor != "brief") throw UsageError("map-size: --descriptor must be orb or brief");
+  const auto start = std::chrono::steady_clock::now();
   const LoadedMap loaded = loadSavedMap(map_file, descriptor, a.get("package-root", defaultPackageRoot()));
+  const double load_s = 1e-3 * millisecondsSince(start);
   const std::vector<MapGrowthRow> rows = mapGrowth(*loaded.map);
   std::size_t submaps = 0, keypoints = 0, bytes = 0;
   std::ofstream csv;
@@ -158,7 +163,7 @@ int runMapSizeCli(const std::vector<std::string>& args, std::ostream& out, std::
   }
   out << "VIMS_MAP_SIZE keyframes=" << rows.size() << " visual_submaps=" << submaps
       << " without_submap=" << rows.size() - submaps << " keypoints=" << keypoints
-      << " submap_mb=" << fixed(1e-6 * static_cast<double>(bytes), 2) << "\n";
+      << " submap_mb=" << fixed(1e-6 * static_cast<double>(bytes), 2) << " load_s=" << fixed(load_s, 3) << "\n";
   return kExitOk;
 }
 

@@ -310,7 +310,7 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
     // Both runs share the VIO (only the loop closer differs), so keyframe times coincide.
     auto it = brief_by_time.lower_bound(t[i] - 1e-3);
     if (it != brief_by_time.end() && std::abs(it->first - t[i]) <= 1e-3) {
-      bow_brief[i] = &brief.map->node(it->second).visual.bow;
+      bow_brief[i] = &brief.map->node(it->second).bow;
       ++brief_matched;
     }
   }
@@ -350,14 +350,14 @@ PlaceRecognitionResult runPlaceRecognition(const PlaceRecognitionInputs& inputs,
     } else {
       std::fill(in_pool.begin(), in_pool.end(), 1);
     }
-    const BowVector& orb_x = map.node(x).visual.bow;
+    const BowVector& orb_x = map.node(x).bow;
     for (PoseGraphNodeId y = 0; y < x; ++y) {
       if (!p_gt[y] || !historical(x, y)) continue;
       pairs.emplace_back(x, y);
       truth.push_back((*p_gt[x] - *p_gt[y]).norm() < options.true_match_radius_m ? 1 : 0);
-      const float orb_score = static_cast<float>(bowScoreL1(orb_x, map.node(y).visual.bow));
+      const float orb_score = static_cast<float>(bowScoreL1(orb_x, map.node(y).bow));
       s_orb.push_back(orb_score);
-      s_magorb.push_back(in_pool[y] && !map.node(y).visual.bow.empty() ? orb_score : kNever);
+      s_magorb.push_back(in_pool[y] && !map.node(y).bow.empty() ? orb_score : kNever);
       s_brief.push_back(bow_brief[x] && bow_brief[y] ? static_cast<float>(bowScoreL1(*bow_brief[x], *bow_brief[y]))
                                                      : 0.0f);
       if (sig[x] && sig[y] && sig[y]->norm() > 0.0)

@@ -187,11 +187,12 @@ void printMapSize(const PoseGraphManager& manager, const PoseGraphManagerOptions
   getrusage(RUSAGE_SELF, &usage);  // before serialising (the bytes below are a second copy of the map)
   size_t submaps = 0, keypoints = 0, submap_bytes = 0, file_bytes = 0;
   manager.inspectMap([&](const MultiScaleMap& map) {
-    for (const MapNode& n : map.nodes()) {
-      if (n.visual.empty()) continue;
+    for (PoseGraphNodeId id = 0; id < map.numNodes(); ++id) {
+      const MapNode& n = map.node(id);
+      if (!n.hasVisualSubmap()) continue;
       ++submaps;
-      keypoints += n.visual.keypoints.size();
-      submap_bytes += visualSubmapMemoryBytes(n.visual);
+      keypoints += n.num_keypoints;
+      submap_bytes += visualSubmapMemoryBytes(*map.visualSubmap(id)) + n.bow.entries.capacity() * sizeof(BowEntry);
     }
     file_bytes = map.serialize(options.vocabularyPath()).size();
   });
@@ -515,8 +516,9 @@ void writeQueryDiagnosis(std::ostream& diag, const std::vector<RecordedKeyframe>
   if (best == keyframes.size()) return;
   const RecordedKeyframe& kc = keyframes[best];
   const auto cn = node_of_t.find(kc.data.t);
-  if (cn == node_of_t.end() || map.node(cn->second).visual.empty()) return;
-  const VisualSubmap& sub = map.node(cn->second).visual;
+  if (cn == node_of_t.end() || !map.node(cn->second).hasVisualSubmap()) return;
+  const std::shared_ptr<const VisualSubmap> candidate_submap = map.visualSubmap(cn->second);
+  const VisualSubmap& sub = *candidate_submap;
   const LoopQuery query = buildLoopQuery(keyframes, q, qn->second, map, context);
 
   // Ground truth: query camera -> candidate camera; the query's points in its camera (VIO).

@@ -63,6 +63,13 @@ struct PassMap {
   std::vector<Eigen::Isometry3d> poses;
 };
 
+/// Keyframe `id`'s whole visual submap (keypoints and BoW vector), as addNode takes it.
+VisualSubmap submapOf(const MultiScaleMap& map, size_t id) {
+  VisualSubmap v = *map.visualSubmap(static_cast<PoseGraphNodeId>(id));
+  v.bow = map.node(static_cast<PoseGraphNodeId>(id)).bow;
+  return v;
+}
+
 /// A copy of `pass`'s keyframes (same visual submaps) whose VIO poses `edit` changes, keyframe i
 /// by keyframe i: a map whose poses disagree with its images.
 template <typename Edit>
@@ -72,8 +79,8 @@ PassMap withEditedPoses(const test::TestWorld& world, const PassMap& pass, Edit 
   for (size_t i = 0; i < pass.poses.size(); ++i) {
     Eigen::Isometry3d T_odom_b = pass.poses[i];
     edit(static_cast<int>(i), &T_odom_b);
-    edited.map.addNode(static_cast<double>(i), session, T_odom_b, T_odom_b.translation(), 0.0,
-                       pass.map.node(static_cast<PoseGraphNodeId>(i)).visual, true);
+    edited.map.addNode(static_cast<double>(i), session, T_odom_b, T_odom_b.translation(), 0.0, submapOf(pass.map, i),
+                       true);
   }
   return edited;
 }
@@ -333,7 +340,7 @@ TEST(LoopVerification, CovisibilityStepsOverNeighboursWithoutVisualSubmap) {
     const Eigen::Isometry3d& T = pass.poses[static_cast<size_t>(i)];
     const bool keep = i < 2 || i == 4 || i > 6;  // nodes 2, 3, 5, 6 (within 2 of the match 4) culled
     culled.map.addNode(i, s, T, T.translation(), 0.0,
-                       keep ? pass.map.node(static_cast<PoseGraphNodeId>(i)).visual : VisualSubmap(), true);
+                       keep ? submapOf(pass.map, static_cast<size_t>(i)) : VisualSubmap(), true);
     if (i > 0) culled.map.addSequentialEdge(static_cast<PoseGraphNodeId>(i - 1), static_cast<PoseGraphNodeId>(i));
   }
   const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.9, 0.1), 2.6, 120.0);

@@ -176,9 +176,9 @@ TEST(PoseGraphManager, EmptyBlackAndInvalidKeyframesHaveDefinedBehaviour) {
   ASSERT_EQ(poses.size(), 12u);
   for (const KeyframePose& k : poses) EXPECT_TRUE(k.T_w_b.matrix().allFinite());
   m.inspectMap([&](const MultiScaleMap& map) {
-    EXPECT_TRUE(map.node(4).visual.empty());
-    EXPECT_TRUE(map.node(5).visual.empty());
-    EXPECT_FALSE(map.node(6).visual.empty());
+    EXPECT_FALSE(map.node(4).hasVisualSubmap());
+    EXPECT_FALSE(map.node(5).hasVisualSubmap());
+    EXPECT_TRUE(map.node(6).hasVisualSubmap());
     EXPECT_LT(map.node(4).bow_image, 0);
     // The empty keyframes are still chained by sequential edges.
     EXPECT_EQ(map.sequentialEdges().size(), 11u);
@@ -223,11 +223,11 @@ TEST(PoseGraphManager, RedundantSubmapsOfAReflownPlaceAreNotStoredAndTheirQuerie
   std::set<PoseGraphNodeId> culled;
   m.inspectMap([&](const MultiScaleMap& map) {
     for (PoseGraphNodeId i = 0; i < map.numNodes(); ++i) {
-      if (!map.node(i).visual.empty()) continue;
+      if (map.node(i).hasVisualSubmap()) continue;
       EXPECT_LT(map.node(i).bow_image, 0);
       // A culled keyframe keeps its BoW vector only (place-recognition evaluation).
-      EXPECT_FALSE(map.node(i).visual.bow.empty()) << "node " << i;
-      EXPECT_TRUE(map.node(i).visual.descriptors.empty() && map.node(i).visual.normalized.empty());
+      EXPECT_FALSE(map.node(i).bow.empty()) << "node " << i;
+      EXPECT_TRUE(map.visualSubmap(i)->descriptors.empty() && map.visualSubmap(i)->normalized.empty());
       culled.insert(i);
       ++culled_per_pass[pass[i]];
     }
@@ -252,7 +252,7 @@ TEST(PoseGraphManager, RedundantSubmapsOfAReflownPlaceAreNotStoredAndTheirQuerie
     ASSERT_EQ(loaded.numNodes(), map.numNodes());
     for (PoseGraphNodeId i = 0; i < map.numNodes(); ++i) {
       EXPECT_EQ(loaded.node(i).bow_image >= 0, map.node(i).bow_image >= 0) << "node " << i;
-      EXPECT_EQ(loaded.node(i).visual.bow.entries.size(), map.node(i).visual.bow.entries.size()) << "node " << i;
+      EXPECT_EQ(loaded.node(i).bow.entries.size(), map.node(i).bow.entries.size()) << "node " << i;
     }
   });
   EXPECT_EQ(st.culled_submaps, culled.size());
@@ -288,7 +288,7 @@ TEST(PoseGraphManager, RedundantSubmapsOfAReflownPlaceAreNotStoredAndTheirQuerie
   feed(m_lean, run);
   EXPECT_EQ(m_lean.stats().culled_submaps, culled.size());
   m_lean.inspectMap([&](const MultiScaleMap& map) {
-    for (PoseGraphNodeId i : culled) EXPECT_TRUE(map.node(i).visual.bow.empty()) << "node " << i;
+    for (PoseGraphNodeId i : culled) EXPECT_TRUE(map.node(i).bow.empty()) << "node " << i;
   });
   const std::vector<LoopAttempt> lean_attempts = m_lean.loopAttempts();
   ASSERT_EQ(lean_attempts.size(), attempts.size());

@@ -49,13 +49,15 @@ struct MapGrowthRow {
   double t = 0.0;
   bool visual_submap = false;  ///< keypoints stored (a loop candidate); else culled or empty
   std::size_t keypoints = 0;
-  std::size_t bytes = 0;  ///< visualSubmapMemoryBytes: keypoints, descriptors, BoW vector
+  std::size_t bytes = 0;  ///< heap bytes of its keypoints, descriptors and BoW vector once read
 };
 std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map);
 
 /// `vims_eval map-size --map FILE [--descriptor orb|brief] [--csv OUT] [--package-root DIR]`:
 /// the map's submap memory per keyframe (bench/soak.py puts it next to the process's RSS, so
-/// that what grows besides the map is visible). Prints one `VIMS_MAP_SIZE ...` line.
+/// that what grows besides the map is visible). Prints one `VIMS_MAP_SIZE ...` line, ending with
+/// `load_s`: the seconds MultiScaleMap::load took (as a repeat run loads it; the per-keyframe
+/// figures then read every submap from the file).
 int runMapSizeCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace eval

@@ -57,14 +57,20 @@ struct MapSession {
 
 /// One keyframe of the map.
 struct MapNode {
-  PoseGraphNode pose;      ///< t, T_odom_b, fixed pitch/roll, optimised p_w_b and yaw_w_b
-  uint32_t session = 0;    ///< index into MultiScaleMap::sessions()
-  VisualSubmap visual;     ///< may be empty (no usable corners)
+  PoseGraphNode pose;    ///< t, T_odom_b, fixed pitch/roll, optimised p_w_b and yaw_w_b
+  uint32_t session = 0;  ///< index into MultiScaleMap::sessions()
+  /// The BoW vector of its image; also kept when its keypoints were not (a culled submap).
+  BowVector bow;
+  /// Keypoints of its visual submap (MultiScaleMap::visualSubmap); 0 = none (no usable corners,
+  /// or culled).
+  uint32_t num_keypoints = 0;
   int64_t bow_image = -1;  ///< BowDatabase id, -1 without a visual submap
   /// The magnetometer was producing signature windows around this keyframe's time. Keyframes
   /// without (magnetometer off) cannot be clustered by magnetism, so the magnetic stage leaves
   /// them in the visual search instead of making them unreachable.
   bool magnetic_coverage = false;
+
+  bool hasVisualSubmap() const { return num_keypoints > 0; }
 };
 
 /// The four numbers of a 4-DoF correction p <- Rz(d_yaw) p + t, yaw <- yaw + d_yaw.
@@ -95,9 +101,9 @@ enum class MapSaveScope { kAll, kLoadedSessions };
 class MultiScaleMap {
  public:
   /// File format version written by save(). Versions 1 (before several coils: its magnetic
-  /// submaps are the first coil's) and 2 (before the sessions' camera extrinsics: this run's is
-  /// assumed) are read too.
-  static constexpr uint32_t kFileVersion = 3;
+  /// submaps are the first coil's), 2 (before the sessions' camera extrinsics: this run's is
+  /// assumed) and 3 (the keypoints inline, read at once) are read too; save() also writes 3.
+  static constexpr uint32_t kFileVersion = 4;
 
   /// `vocabulary` may be null only for a map that never gets visual submaps. `declination_rad`
   /// is the site's magnetic declination (east positive). Throws std::invalid_argument for
@@ -112,7 +118,8 @@ class MultiScaleMap {
   /// A new session (a new chain); returns its index.
   uint32_t addSession(uint32_t vio_session, bool loaded);
   /// Appends a keyframe to `session` with its initial world pose (yaw + position; roll and
-  /// pitch come from T_odom_b). A non-empty visual submap is added to the BoW database.
+  /// pitch come from T_odom_b). A non-empty visual submap is added to the BoW database; its BoW
+  /// vector goes to MapNode::bow, its keypoints to visualSubmap().
   /// Throws std::invalid_argument for an unknown session or a non-finite pose.
   PoseGraphNodeId addNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b, const Eigen::Vector3d& p_w_b,
                           double yaw_w_b, VisualSubmap visual, bool magnetic_coverage);
@@ -174,6 +181,11 @@ class MultiScaleMap {
   // ---- queries
   size_t numNodes() const { return nodes_.size(); }
   const MapNode& node(PoseGraphNodeId id) const { return nodes_.at(id); }
+  /// The keypoints, descriptors and normalised coordinates of a keyframe's visual submap (its
+  /// BoW vector is MapNode::bow; the returned one is empty); empty without a submap. A version-4
+  /// map file's submaps stay in the mapped file until asked for: each call decodes the
+  /// keyframe's block and checks its checksum (a corrupt block is logged and reads as empty).
+  std::shared_ptr<const VisualSubmap> visualSubmap(PoseGraphNodeId id) const;
   const std::vector<MapNode>& nodes() const { return nodes_; }
   const std::vector<MapSession>& sessions() const { return sessions_; }
   const std::vector<SequentialEdge>& sequentialEdges() const { return sequential_edges_; }
@@ -205,10 +217,16 @@ class MultiScaleMap {
   // ---- persistence
   /// Writes the map (file format in docs/pose_graph.md) with the vocabulary reference (path as
   /// given + checksum). kLoadedSessions: the loaded sessions' keyframes with the edges, yaw
-  /// factors and magnetic submaps among them only. Throws std::runtime_error on an I/O error.
-  void save(const std::string& path, const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll) const;
-  std::vector<uint8_t> serialize(const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll) const;
+  /// factors and magnetic submaps among them only. `version`: kFileVersion, or 3 for a vehicle
+  /// whose VIMS reads no later one. Throws std::runtime_error on an I/O error, and
+  /// std::invalid_argument for a version it cannot write.
+  void save(const std::string& path, const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll,
+            uint32_t version = kFileVersion) const;
+  std::vector<uint8_t> serialize(const std::string& vocabulary_path, MapSaveScope scope = MapSaveScope::kAll,
+                                 uint32_t version = kFileVersion) const;
   /// Loads a file into this map, which must be empty; every session becomes a loaded session.
+  /// The file is mapped into memory and a version-4 file's visual submaps are read when asked
+  /// for (visualSubmap), so a large map loads in the time of its poses and BoW vectors.
   /// Throws MapFileError (missing, truncated, corrupt, other version, inconsistent contents,
   /// descriptor type or vocabulary checksum differing from this map's vocabulary).
   void load(const std::string& path);
@@ -218,9 +236,27 @@ class MultiScaleMap {
   uint64_t vocabularyChecksum() const { return vocabulary_checksum_; }
 
  private:
-  /// Header, payload and checksum; the payload alone (its size goes into the header).
-  void writeFile(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const;
-  void writePayload(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope) const;
+  /// The visual submaps of a version-4 file, left in its bytes (multiscale_map_file.cpp).
+  struct PagedSubmaps;
+  /// A file's bytes: mapped, or a copy (deserialize).
+  struct FileBytes;
+
+  /// Header, payload (index) and checksum, then (version 4) the keypoint blocks.
+  void writeFile(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope, uint32_t version) const;
+  /// The payload; version 4 with `block_checksums` (per node kept) instead of inline keypoints.
+  void writePayload(MapFileWriter& w, const std::string& vocabulary_path, MapSaveScope scope, uint32_t version,
+                    const std::vector<uint64_t>& block_checksums) const;
+  /// Keyframes (a prefix of nodes_) that `scope` writes.
+  size_t numNodesToWrite(MapSaveScope scope, uint32_t* num_sessions) const;
+  /// A keyframe's keypoint records (kKeypointRecordBytes each) as the file stores them.
+  void writeKeypointBlock(MapFileWriter& w, PoseGraphNodeId id) const;
+  /// addNode with the submap's parts: its BoW vector, its keypoints' number, and the keypoints
+  /// themselves (null when paged or none).
+  PoseGraphNodeId appendNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b,
+                             const Eigen::Vector3d& p_w_b, double yaw_w_b, BowVector bow, uint32_t num_keypoints,
+                             std::shared_ptr<const VisualSubmap> resident, bool magnetic_coverage);
+  /// Parses a whole file held by `file` (kept by the map when its submaps stay paged).
+  void parse(std::shared_ptr<const FileBytes> file, const std::string& source);
   uint32_t findSession(uint32_t session) const;
   void uniteSessions(uint32_t a, uint32_t b);
   void checkNode(PoseGraphNodeId id, const char* what) const;
@@ -236,6 +272,12 @@ class MultiScaleMap {
   std::unique_ptr<BowDatabase> bow_;
   std::vector<PoseGraphNodeId> image_to_node_;
   std::vector<MapNode> nodes_;
+  /// Keypoints of nodes_[i] held in memory (built by this run, or read from a file before
+  /// version 4); null when none or paged.
+  std::vector<std::shared_ptr<const VisualSubmap>> resident_submaps_;
+  /// The loaded file's visual submaps (version 4); null otherwise.
+  std::shared_ptr<const PagedSubmaps> paged_;
+  std::shared_ptr<const VisualSubmap> empty_submap_ = std::make_shared<const VisualSubmap>();
   std::vector<MapSession> sessions_;
   Eigen::Isometry3d run_T_b_c_ = Eigen::Isometry3d::Identity();
   std::vector<uint32_t> session_parent_;  ///< union-find over sessions; a root is its component's oldest session

@@ -337,7 +337,8 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
                                         PoseGraphNodeId candidate) const {
   VerificationResult r;
   const MapNode& cand = map.node(candidate);
-  const VisualSubmap& sub = cand.visual;
+  const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(candidate);
+  const VisualSubmap& sub = *submap;
   // The candidate's submap is in its own run's camera (a loaded map's rig may differ from this run's).
   const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
   const LevelWindow levels = levelWindow(query, map, candidate);
@@ -523,7 +524,7 @@ int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const Multi
       if (id < 0 || id >= static_cast<int64_t>(map.numNodes())) break;
       const MapNode& n = map.node(static_cast<PoseGraphNodeId>(id));
       if (n.session != m.session) break;
-      if (n.visual.empty()) continue;
+      if (!n.hasVisualSubmap()) continue;
       neighbours.push_back(static_cast<PoseGraphNodeId>(id));
       ++found;
     }
@@ -535,6 +536,7 @@ int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const Multi
     // the PnP pose: where the neighbour camera must see each inlier if the loop is right.
     const Eigen::Isometry3d T_cn_odomq =
         extrinsicOf(map, neighbour).inverse() * n.pose.T_odom_b.inverse() * m.pose.T_odom_b * T_bm_odomq;
+    const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(neighbour);
     int projected = 0;
     int confirmed = 0;
     for (const auto& [point, keypoint] : inliers) {
@@ -545,7 +547,7 @@ int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const Multi
       if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() >= camera_.width || uv.y() >= camera_.height) continue;
       ++projected;
       // The neighbours were flown at about the match's altitude: the match's level window.
-      if (hasMatchingKeypointNear(points, by_point[point], n.visual, uv, r2, options_.match_max_distance, levels))
+      if (hasMatchingKeypointNear(points, by_point[point], *submap, uv, r2, options_.match_max_distance, levels))
         ++confirmed;
     }
     if (projected >= options_.covisibility_min_points &&

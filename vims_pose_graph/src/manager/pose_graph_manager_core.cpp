@@ -698,12 +698,12 @@ MapContents PoseGraphManagerCore::mapContents() const {
   MapContents c;
   for (PoseGraphNodeId i = 0; i < map_.numNodes(); ++i) {
     const MapNode& n = map_.node(i);
-    if (n.visual.empty()) continue;
+    if (!n.hasVisualSubmap()) continue;
     VisualSubmapMarker v;
     v.node = i;
     v.t = n.pose.t;
     v.p_w = n.pose.p_w_b;
-    v.num_keypoints = n.visual.keypoints.size();
+    v.num_keypoints = n.num_keypoints;
     v.loaded = map_.sessions()[n.session].loaded;
     c.visual.push_back(v);
   }

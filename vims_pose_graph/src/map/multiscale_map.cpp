@@ -65,6 +65,30 @@ uint32_t MultiScaleMap::addSession(uint32_t vio_session, bool loaded) {
 PoseGraphNodeId MultiScaleMap::addNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b,
                                        const Eigen::Vector3d& p_w_b, double yaw_w_b, VisualSubmap visual,
                                        bool magnetic_coverage) {
+  if (visual.descriptors.size() != visual.keypoints.size() || visual.normalized.size() != visual.keypoints.size())
+    throw std::invalid_argument(
+        "MultiScaleMap::addNode: keypoints, descriptors and normalised points differ in number");
+  const uint32_t num_keypoints = static_cast<uint32_t>(visual.keypoints.size());
+  BowVector bow = std::move(visual.bow);
+  visual.bow = BowVector();
+  std::shared_ptr<const VisualSubmap> resident;
+  if (!visual.empty()) {
+    // The describer appends keypoints in several passes (ORB, tracked, dense corners), which
+    // leaves up to as much spare capacity again in each vector; the map keeps a submap for the
+    // whole run, so it keeps exactly its contents.
+    visual.keypoints.shrink_to_fit();
+    visual.descriptors.shrink_to_fit();
+    visual.normalized.shrink_to_fit();
+    resident = std::make_shared<const VisualSubmap>(std::move(visual));
+  }
+  return appendNode(t, session, T_odom_b, p_w_b, yaw_w_b, std::move(bow), num_keypoints, std::move(resident),
+                    magnetic_coverage);
+}
+
+PoseGraphNodeId MultiScaleMap::appendNode(double t, uint32_t session, const Eigen::Isometry3d& T_odom_b,
+                                          const Eigen::Vector3d& p_w_b, double yaw_w_b, BowVector bow,
+                                          uint32_t num_keypoints, std::shared_ptr<const VisualSubmap> resident,
+                                          bool magnetic_coverage) {
   if (session >= sessions_.size()) throw std::invalid_argument("MultiScaleMap::addNode: unknown session");
   if (!std::isfinite(t) || !isFinitePose(T_odom_b) || !p_w_b.allFinite() || !std::isfinite(yaw_w_b))
     throw std::invalid_argument("MultiScaleMap::addNode: non-finite time or pose");
@@ -78,20 +102,16 @@ PoseGraphNodeId MultiScaleMap::addNode(double t, uint32_t session, const Eigen::
   n.pose.yaw_w_b = wrapAngle(yaw_w_b);
   n.session = session;
   n.magnetic_coverage = magnetic_coverage;
+  n.num_keypoints = num_keypoints;
   const PoseGraphNodeId id = static_cast<PoseGraphNodeId>(nodes_.size());
-  if (!visual.empty() && !visual.bow.empty() && bow_) {
-    n.bow_image = bow_->add(visual.bow);
+  if (num_keypoints > 0 && !bow.empty() && bow_) {
+    n.bow_image = bow_->add(bow);
     image_to_node_.push_back(id);
   }
-  // The describer appends keypoints in several passes (ORB, tracked, dense corners), which
-  // leaves up to as much spare capacity again in each vector; the map keeps a submap for the
-  // whole run, so it keeps exactly its contents.
-  visual.keypoints.shrink_to_fit();
-  visual.descriptors.shrink_to_fit();
-  visual.normalized.shrink_to_fit();
-  visual.bow.entries.shrink_to_fit();
-  n.visual = std::move(visual);
+  bow.entries.shrink_to_fit();
+  n.bow = std::move(bow);
   nodes_.push_back(std::move(n));
+  resident_submaps_.push_back(std::move(resident));
   MapSession& s = sessions_[session];
   if (s.num_nodes == 0) s.first_node = id;
   s.last_node = id;
@@ -421,7 +441,7 @@ std::vector<PoseGraphNodeId> MultiScaleMap::clusteredNodes(const MagneticSubmap&
   const double reach = submap.radius_m + cluster_margin_m;
   for (PoseGraphNodeId i = 0; i < nodes_.size(); ++i) {
     const MapNode& n = nodes_[i];
-    const bool member = members == ClusterMembers::kVisualSubmaps ? n.bow_image >= 0 : !n.visual.bow.empty();
+    const bool member = members == ClusterMembers::kVisualSubmaps ? n.bow_image >= 0 : !n.bow.empty();
     if (!member || findSession(n.session) != component) continue;
     if ((n.pose.p_w_b.head<2>() - centre).norm() <= reach) out.push_back(i);
   }
