@@ -297,19 +297,27 @@ void SeabedRenderer::computeSignal(const Eigen::Isometry3d& T_w_c, Workspace& ws
   float origin_x[kMaxLevels], origin_y[kMaxLevels], inverse_texel[kMaxLevels];
   cv::Vec2f* map[kMaxLevels];
   std::vector<cv::Mat> patches(levels);
+  int64_t gx0[kMaxLevels], gy0[kMaxLevels];
+  size_t frame_tiles = 0;  // the largest level's region spans (about) the union of all
+  for (int l = 0; l < levels; ++l) {
+    if (!level_used[l]) continue;
+    const double s = texture_->texelSize(l);
+    gx0[l] = static_cast<int64_t>(std::floor((p_w_c.x() + min_x[l]) / s)) - 2;
+    gy0[l] = static_cast<int64_t>(std::floor((p_w_c.y() + min_y[l]) / s)) - 2;
+    const auto gx1 = static_cast<int64_t>(std::floor((p_w_c.x() + max_x[l]) / s)) + 3;
+    const auto gy1 = static_cast<int64_t>(std::floor((p_w_c.y() + max_y[l]) / s)) + 3;
+    patches[l].create(static_cast<int>(gy1 - gy0[l]), static_cast<int>(gx1 - gx0[l]), CV_8UC1);
+    frame_tiles = std::max(frame_tiles, texture_->tilesSpanned(l, gx0[l], gy0[l], patches[l].cols, patches[l].rows));
+  }
+  texture_->reserveTiles(2 * frame_tiles);
   for (int l = 0; l < levels; ++l) {
     map[l] = nullptr;
     if (!level_used[l]) continue;
     const double s = texture_->texelSize(l);
-    const auto gx0 = static_cast<int64_t>(std::floor((p_w_c.x() + min_x[l]) / s)) - 2;
-    const auto gy0 = static_cast<int64_t>(std::floor((p_w_c.y() + min_y[l]) / s)) - 2;
-    const auto gx1 = static_cast<int64_t>(std::floor((p_w_c.x() + max_x[l]) / s)) + 3;
-    const auto gy1 = static_cast<int64_t>(std::floor((p_w_c.y() + max_y[l]) / s)) + 3;
-    patches[l].create(static_cast<int>(gy1 - gy0), static_cast<int>(gx1 - gx0), CV_8UC1);
-    texture_->fillPatch(l, gx0, gy0, patches[l]);
+    texture_->fillPatch(l, gx0[l], gy0[l], patches[l]);
     // Patch texel coordinates of a ground point: (p + x) / s - g0 - 0.5 (texel centres).
-    origin_x[l] = static_cast<float>(p_w_c.x() / s - static_cast<double>(gx0) - 0.5);
-    origin_y[l] = static_cast<float>(p_w_c.y() / s - static_cast<double>(gy0) - 0.5);
+    origin_x[l] = static_cast<float>(p_w_c.x() / s - static_cast<double>(gx0[l]) - 0.5);
+    origin_y[l] = static_cast<float>(p_w_c.y() / s - static_cast<double>(gy0[l]) - 0.5);
     inverse_texel[l] = static_cast<float>(1.0 / s);
     if (ws.maps[l].rows != height || ws.maps[l].cols != width || ws.maps[l].type() != CV_32FC2) {
       ws.maps[l] = cv::Mat(height, width, CV_32FC2, cv::Scalar(0, 0));

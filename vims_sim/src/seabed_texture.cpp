@@ -211,7 +211,7 @@ void drawWeed(TileCanvas& canvas, Rng& rng, double cx, double cy) {
 }  // namespace
 
 SeabedTexture::SeabedTexture(uint64_t world_seed, SeabedTextureParams params)
-    : seed_(world_seed), params_(params), change_threshold_(changeThreshold(params)) {
+    : seed_(world_seed), params_(params), change_threshold_(changeThreshold(params)), capacity_(params.cache_tiles) {
   if (!(params_.texel_size > 0.0)) throw std::invalid_argument("SeabedTexture: texel size must be > 0");
   if (params_.levels < 1 || params_.levels > 10)
     throw std::invalid_argument("SeabedTexture: levels must be in [1, 10]");
@@ -405,7 +405,7 @@ std::shared_ptr<const SeabedTile> SeabedTexture::tile(int64_t tile_x, int64_t ti
   // Evict least recently used tiles (never one still being generated; users of an evicted
   // tile keep it alive through their shared_ptr).
   auto victim = lru_.end();
-  while (cache_.size() > params_.cache_tiles && victim != lru_.begin()) {
+  while (cache_.size() > capacity_ && victim != lru_.begin()) {
     --victim;
     auto entry = cache_.find(*victim);
     if (!entry->second.tile) continue;
@@ -432,6 +432,19 @@ void SeabedTexture::fillPatch(int level, int64_t gx0, int64_t gy0, cv::Mat& patc
       t->levels[level](src).copyTo(patch(dst));
     }
   }
+}
+
+size_t SeabedTexture::tilesSpanned(int level, int64_t gx0, int64_t gy0, int cols, int rows) const {
+  if (level < 0 || level >= params_.levels || cols <= 0 || rows <= 0) return 0;
+  const int64_t n = params_.tile_texels >> level;
+  const int64_t nx = floorDiv(gx0 + cols - 1, n) - floorDiv(gx0, n) + 1;
+  const int64_t ny = floorDiv(gy0 + rows - 1, n) - floorDiv(gy0, n) + 1;
+  return static_cast<size_t>(nx * ny);
+}
+
+void SeabedTexture::reserveTiles(size_t tiles) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  capacity_ = std::max(capacity_, tiles);
 }
 
 size_t SeabedTexture::tilesGenerated() const {

@@ -110,6 +110,35 @@ TEST(SeabedTexture, CacheStaysBoundedAndRegeneratesIdentically) {
   EXPECT_EQ(texture.tilesGenerated(), 14u);
 }
 
+// A cache smaller than what one frame reads would evict, frame after frame, the tiles the next
+// frame reads again: reserveTiles keeps a frame's tiles, and the renderer reserves twice them.
+TEST(SeabedTexture, ReservedCapacityKeepsAWideViewsTiles) {
+  SeabedTextureParams params;
+  params.cache_tiles = 4;
+  const SeabedTexture thrashing(3, params), reserved(3, params);
+  cv::Mat patch(3 * 512 - 20, 3 * 512 - 20, CV_8UC1);
+  EXPECT_EQ(reserved.tilesSpanned(0, 10, 10, patch.cols, patch.rows), 9u);
+  EXPECT_EQ(reserved.tilesSpanned(1, 10, 10, 700, 10), 3u);  // level-1 tiles are 256 texels
+  reserved.reserveTiles(9);
+  for (int frame = 0; frame < 2; ++frame) {
+    thrashing.fillPatch(0, 10, 10, patch);
+    reserved.fillPatch(0, 10, 10, patch);
+  }
+  EXPECT_EQ(thrashing.tilesGenerated(), 18u);
+  EXPECT_EQ(reserved.tilesGenerated(), 9u);
+  EXPECT_EQ(reserved.tilesCached(), 9u);
+
+  // The renderer reserves for its view: a wide camera high above the seabed rendered twice
+  // generates its tiles once.
+  auto texture = std::make_shared<SeabedTexture>(2, params);
+  const SeabedRenderer renderer(testCalibration(), texture);
+  renderer.render(downwardCamera(0.0, 1.0, 6.0), 1);
+  const size_t first = texture->tilesGenerated();
+  EXPECT_GT(first, 4u);
+  renderer.render(downwardCamera(0.0, 1.0, 6.0), 1);
+  EXPECT_EQ(texture->tilesGenerated(), first);
+}
+
 TEST(SeabedTexture, HasSparseAndDenseStretches) {
   const SeabedTexture texture(1);
   int sparse = 0, dense = 0, n = 0;
