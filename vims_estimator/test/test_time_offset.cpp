@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "sequence_run.h"
 #include "vims_common/sequence_config.h"
 #include "vims_common/sequence_paths.h"
 #include "vims_common/trajectory_io.h"
@@ -42,79 +43,12 @@ namespace {
 // growth's floor, decides.
 constexpr double kTankFloorMisfit = 0.0;
 
-struct TdRun {
-  std::vector<vims::StampedPose> poses;  ///< body pose at every frame stamp
-  double td_final = 0.0;
-  int resets = 0;
-  bool all_finite = true;
-  double ate_pct = 0.0;
-  double sim3_scale = 1.0;
-};
-
-/// Optional edit of every tracked frame before the estimator sees it (the exact-feature test).
-using FrameEdit = std::function<void(vims::TrackedFrame*)>;
-
-/// bag -> sonar filter -> tracker -> VioEstimator (as vims_offline wires them), then the ATE.
-TdRun runSequence(const std::string& dir, const vims::EstimatorOptions& options, const FrameEdit& edit = nullptr) {
-  const vims::SequencePaths paths = vims::SequencePaths::resolve(dir);
-  const vims::SequenceConfig config = vims::SequenceConfig::load(paths.yaml);
-  auto logger = vims::Logger::stderrLogger(vims::LogLevel::kError);
-  vims::SonarAltitudeFilter sonar_filter(vims::SonarFilterOptions(), config.sonar, logger);
-  vims::FeatureTracker tracker(config.camera, vims::TrackerOptions(), logger);
-  vims::VioEstimator vio(config, options, logger);
-  TdRun run;
-  auto drain = [&] {
-    for (const vims::VioFrameResult& r : vio.takeFrameResults()) {
-      if (r.status == vims::VioStatus::kReset) ++run.resets;
-      if (r.status == vims::VioStatus::kReset || r.status == vims::VioStatus::kWaitingForImu) continue;
-      if (!r.T_odom_b_at_stamp.matrix().allFinite() || !std::isfinite(r.td)) run.all_finite = false;
-      vims::StampedPose p;
-      // The state's own time t_stamp - td_estimate: the exposure time on the IMU (ground-truth)
-      // clock when td is right, so a wrong td also shows in the ATE.
-      p.t = r.t_state;
-      p.p = r.T_odom_b.translation();
-      p.q = Eigen::Quaterniond(r.T_odom_b.linear());
-      run.poses.push_back(p);
-    }
-    vio.takeKeyframes();
-  };
-  std::vector<vims::SonarFilterResult> sonar_results;
-  vims::SequenceBagReader reader(paths.bag, config);
-  vims::SequenceBagReader::Handlers handlers;
-  handlers.imu = [&](const vims::ImuSample& s) {
-    vio.feedImu(s);
-    drain();
-  };
-  handlers.image = [&](const vims::CameraFrame& f) {
-    vims::TrackedFrame tracked = tracker.process(f);
-    if (edit) edit(&tracked);
-    vio.feedFrame(tracked, f.image);
-    drain();
-  };
-  handlers.sonar = [&](const vims::SonarRange& r) {
-    sonar_results.clear();
-    sonar_filter.feed(r, &sonar_results);
-    for (const auto& result : sonar_results) vio.feedSonar(result);
-  };
-  reader.run(handlers);
-  drain();
-  run.td_final = vio.td();
-
-  vims::eval::TrajectoryEvalOptions eval_options;
-  eval_options.alignments = {vims::eval::AlignmentMode::kSe3, vims::eval::AlignmentMode::kSim3};
-  if (run.poses.size() > 50) {
-    const auto evaluation = vims::eval::evaluateTrajectory(vims::readTumFile(paths.gt), run.poses, eval_options, "vio");
-    run.ate_pct = evaluation.find(vims::eval::AlignmentMode::kSe3)->ate_rmse_pct;
-    run.sim3_scale = evaluation.find(vims::eval::AlignmentMode::kSim3)->S_w_v.scale;
-  }
-  return run;
-}
-
-std::string sequenceDir(const std::string& name) {
-  const char* root = std::getenv("VIMS_TEST_DATA");
-  if (!root || !*root) return "";
-  return (std::filesystem::path(root) / name).string();
-}
+using vims::test::ExactProjections;
+using vims::test::FrameEdit;
+using vims::test::gtPose;
+using vims::test::runSequence;
+using vims::test::sequenceDir;
+using TdRun = vims::test::SequenceRun;
 
 }  // namespace
 
@@ -138,20 +72,6 @@ TEST(VisualInertialInitOnSequence, Tank60NoSonarIsFiniteAndNeverCrashes) {
 }
 
 namespace {
-/// Ground-truth body pose at t (linear / slerp interpolation of the TUM samples).
-Eigen::Isometry3d gtPose(const std::vector<vims::StampedPose>& gt, double t) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const vims::StampedPose& p, double v) { return p.t < v; });
-  if (it == gt.begin()) it = gt.begin() + 1;
-  if (it == gt.end()) it = gt.end() - 1;
-  const vims::StampedPose& a = *(it - 1);
-  const vims::StampedPose& b = *it;
-  const double w = std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0);
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = a.q.slerp(w, b.q).toRotationMatrix();
-  T.translation() = (1.0 - w) * a.p + w * b.p;
-  return T;
-}
-
 /// The time shift s (exposure = stamp - s) that makes the tracker's matches between consecutive
 /// frames agree best with the ground-truth camera motion (epipolar residual, depth-free): what
 /// the images say about the camera delay, independent of the estimator.
@@ -220,38 +140,13 @@ namespace {
 /// error against these projections by track age (its random walk, the cause of the residual td
 /// error with real tracking).
 double tdWithExactFeatures(const std::string& dir, double delay) {
-  const vims::SequencePaths paths = vims::SequencePaths::resolve(dir);
-  const vims::SequenceConfig config = vims::SequenceConfig::load(paths.yaml);
-  const auto gt = vims::readTumFile(paths.gt);
-  std::map<std::uint64_t, Eigen::Vector3d> seabed_points;
-  std::map<int, std::pair<double, int>> error_by_age;  // sum of squared px, count
-  const FrameEdit exact = [&](vims::TrackedFrame* frame) {
-    const Eigen::Isometry3d T_w_c = gtPose(gt, frame->t - delay) * config.camera.T_b_c;
-    for (vims::TrackedFeature& f : frame->features) {
-      auto it = seabed_points.find(f.id);
-      if (it == seabed_points.end()) {
-        const Eigen::Vector3d ray = T_w_c.linear() * f.normalized.homogeneous();
-        if (!(ray.z() < 0.0)) continue;
-        it = seabed_points.emplace(f.id, T_w_c.translation() - T_w_c.translation().z() / ray.z() * ray).first;
-      }
-      const Eigen::Vector3d p_c = T_w_c.inverse() * it->second;
-      const Eigen::Vector2d projection = p_c.head<2>() / p_c.z();
-      auto& [sum, count] = error_by_age[std::min(f.track_length, 40)];
-      sum += (config.camera.fx * (f.normalized - projection)).squaredNorm();
-      ++count;
-      f.normalized = projection;
-    }
-  };
+  ExactProjections exact(dir, delay, true);
   vims::EstimatorOptions options;
   options.estimate_td = true;
   options.factors.sonar_depth.misfit_per_m = kTankFloorMisfit;
-  const TdRun run = runSequence(dir, options, exact);
+  const TdRun run = runSequence(dir, options, exact.edit());
   std::cout << "tracker error against the exact projections (rms px) by track age:";
-  for (int age : {2, 5, 10, 20, 40}) {
-    const auto it = error_by_age.find(age);
-    if (it != error_by_age.end() && it->second.second > 0)
-      std::cout << " " << age << ": " << std::sqrt(it->second.first / it->second.second);
-  }
+  for (int age : {2, 5, 10, 20, 40}) std::cout << " " << age << ": " << exact.rmsErrorAtAge(age);
   std::cout << "\n";
   EXPECT_TRUE(run.all_finite);
   EXPECT_EQ(run.resets, 0);
