@@ -6,6 +6,7 @@
 /// how far the tracker is from them (test_time_offset.cpp, test_fisheye_features.cpp).
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>

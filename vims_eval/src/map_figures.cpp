@@ -129,7 +129,7 @@ std::vector<MapGrowthRow> mapGrowth(const MultiScaleMap& map) {
     r.t = n.pose.t;
     r.visual_submap = n.hasVisualSubmap();
     r.keypoints = n.num_keypoints;
-    r.bytes = visualSubmapMemoryBytes(*map.visualSubmap(id)) + n.bow.entries.capacity() * sizeof(BowEntry);
+    r.bytes = visualSubmapMemoryBytes(map, id);
     rows.push_back(r);
   }
   return rows;

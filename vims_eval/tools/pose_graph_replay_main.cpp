@@ -192,7 +192,7 @@ void printMapSize(const PoseGraphManager& manager, const PoseGraphManagerOptions
       if (!n.hasVisualSubmap()) continue;
       ++submaps;
       keypoints += n.num_keypoints;
-      submap_bytes += visualSubmapMemoryBytes(*map.visualSubmap(id)) + n.bow.entries.capacity() * sizeof(BowEntry);
+      submap_bytes += visualSubmapMemoryBytes(map, id);
     }
     file_bytes = map.serialize(options.vocabularyPath()).size();
   });

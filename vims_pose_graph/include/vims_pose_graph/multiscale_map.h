@@ -31,10 +31,6 @@
 
 namespace vims {
 
-/// Heap bytes a visual submap holds (vector capacities: keypoints, descriptors, normalised
-/// coordinates, BoW entries); what the map's memory grows by per stored keyframe.
-size_t visualSubmapMemoryBytes(const VisualSubmap& submap);
-
 /// Thrown by MultiScaleMap::load for a missing, truncated, corrupt or incompatible map file;
 /// what() names the file and the problem.
 class MapFileError : public std::runtime_error {
@@ -293,5 +289,10 @@ class MultiScaleMap {
   std::vector<DepthMeasurement> depth_measurements_;
   std::vector<MagneticSubmap> magnetic_submaps_;
 };
+
+/// Heap bytes a keyframe's visual submap holds once read (vector capacities: keypoints,
+/// descriptors, normalised coordinates, and its BoW vector); what the map's memory grows by per
+/// stored keyframe. Reads a paged submap from its file.
+size_t visualSubmapMemoryBytes(const MultiScaleMap& map, PoseGraphNodeId id);
 
 }  // namespace vims

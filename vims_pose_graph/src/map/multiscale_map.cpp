@@ -46,9 +46,12 @@ void MultiScaleMap::checkNode(PoseGraphNodeId id, const char* what) const {
     throw std::invalid_argument(std::string("MultiScaleMap::") + what + ": unknown node " + std::to_string(id));
 }
 
-size_t visualSubmapMemoryBytes(const VisualSubmap& submap) {
-  return submap.keypoints.capacity() * sizeof(cv::KeyPoint) + submap.descriptors.capacity() * sizeof(BinaryDescriptor) +
-         submap.normalized.capacity() * sizeof(Eigen::Vector2d) + submap.bow.entries.capacity() * sizeof(BowEntry);
+size_t visualSubmapMemoryBytes(const MultiScaleMap& map, PoseGraphNodeId id) {
+  const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(id);
+  return submap->keypoints.capacity() * sizeof(cv::KeyPoint) +
+         submap->descriptors.capacity() * sizeof(BinaryDescriptor) +
+         submap->normalized.capacity() * sizeof(Eigen::Vector2d) +
+         map.node(id).bow.entries.capacity() * sizeof(BowEntry);
 }
 
 uint32_t MultiScaleMap::addSession(uint32_t vio_session, bool loaded) {

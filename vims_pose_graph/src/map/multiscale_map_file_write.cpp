@@ -1,6 +1,7 @@
 /// @file multiscale_map_file_write.cpp
 /// @brief MultiScaleMap's map file: writing it (docs/pose_graph.md, "Map file"); reading it is
 /// in multiscale_map_file.cpp.
+#include <algorithm>
 #include <fstream>
 #include <string>
 
