@@ -38,25 +38,43 @@ def ate_se3_m(bin_dir, sequence, estimate):
     return float(m.group(1))
 
 
+def run_logged(cmd, log):
+    """Runs `cmd` with its stdout and stderr in the file `log`; returns its exit status."""
+    with open(log, "w") as f:
+        return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
+
+
+def publish_table(work, stem, lines):
+    """Prints the markdown table of `lines` and writes it to WORK/STEM.md."""
+    table = "\n".join(lines)
+    with open(os.path.join(work, stem + ".md"), "w") as f:
+        f.write(table + "\n")
+    print(table)
+
+
 def _summary(line):
     return dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
 
 
 def eval_run(bin_dir, sequence, out):
     """`vims_eval run` on a finished vims_offline output folder: VIO and global
-    SE(3) ATE [% of distance], rotation RMSE, tilt error (yaw-only alignment) [deg], loops. nan
+    SE(3) ATE [% of distance and m], the ground truth's distance [m], rotation RMSE, tilt error (yaw-only alignment) [deg], loops. nan
     (or -1 loops) for what the folder lacks (e.g. --vio-only runs have no global trajectory)."""
     proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out],
                           capture_output=True, text=True)
     nan = float("nan")
-    figures = {"vio_pct": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "global_pct": nan, "global_rot_deg": nan,
-               "global_tilt_deg": nan, "loops_correct": -1, "loops_wrong": -1}
+    figures = {"vio_pct": nan, "vio_m": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "global_pct": nan,
+               "global_m": nan, "global_rot_deg": nan, "global_tilt_deg": nan, "distance_m": nan,
+               "loops_correct": -1, "loops_wrong": -1}
     for line in proc.stdout.splitlines():
         if line.startswith("VIMS_EVAL "):
             kv = _summary(line)
             label = kv.get("label")
+            if label == "vio":
+                figures["distance_m"] = float(kv.get("dist_m", nan))
             if label in ("vio", "global"):
                 figures[f"{label}_pct"] = float(kv.get("ate_se3_pct", nan))
+                figures[f"{label}_m"] = float(kv.get("ate_se3_m", nan))
                 figures[f"{label}_rot_deg"] = float(kv.get("rot_rmse_deg", nan))
                 figures[f"{label}_tilt_deg"] = float(kv.get("tilt_rmse_deg", nan))
         elif line.startswith("VIMS_EVAL_LOOPS "):

@@ -29,7 +29,7 @@ import time
 
 import yaml
 
-from bench_common import ROOT, EvalError, ate_se3_m, prepare_work_dir, tool_dir
+from bench_common import ROOT, EvalError, ate_se3_m, prepare_work_dir, publish_table, tool_dir
 
 
 def run_timed(cmd, log_path):
@@ -159,10 +159,7 @@ def main():
     lines = ["| " + " | ".join(cols) + " |", "|" + " --- |" * len(cols)]
     for row in rows:
         lines.append("| " + " | ".join(str(row.get(c, "")) for c in cols) + " |")
-    table = "\n".join(lines)
-    with open(os.path.join(work, "growth.md"), "w") as f:
-        f.write(table + "\n")
-    print(table)
+    publish_table(work, "growth", lines)
 
 
 if __name__ == "__main__":

@@ -25,11 +25,10 @@ import argparse
 import csv
 import itertools
 import os
-import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-from bench_common import ROOT, eval_run, prepare_work_dir, tool_dir
+from bench_common import ROOT, eval_run, prepare_work_dir, run_logged, tool_dir
 
 
 def config_text(model, pressure):
@@ -42,11 +41,6 @@ def roughness_flags(rough):
     if rough <= 0.2:
         return ["--terrain-roughness-m", str(rough)]
     return ["--terrain-roughness-m", "0.1", "--terrain-rock-height-m", str(rough), "--terrain-rock-density", "0.05"]
-
-
-def run(cmd, log):
-    with open(log, "w") as f:
-        return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
 
 
 def svg_plot(rows, path, key="vio_pct"):
@@ -127,7 +121,7 @@ def main():
             cmd = [os.path.join(bin_dir, "vims_sim"), "--scenario", scenario, "--duration", str(args.duration),
                    "--seed", str(args.seed), "--out", seq, "--terrain", "slope4", "--terrain-slope-deg", str(slope),
                    "--pressure", "--threads", "1"] + roughness_flags(rough)
-            if run(cmd, seq + "_sim.log") != 0:
+            if run_logged(cmd, seq + "_sim.log") != 0:
                 sys.exit(f"terrain_sweep.py: vims_sim failed, see {seq}_sim.log")
         return seq
 
@@ -147,7 +141,7 @@ def main():
         if args.vio_only:
             cmd.append("--vio-only")
         # A finished run of an earlier call (its summary is written last) is reused.
-        if not os.path.exists(os.path.join(out, "summary.yaml")) and run(cmd, out + ".log") != 0:
+        if not os.path.exists(os.path.join(out, "summary.yaml")) and run_logged(cmd, out + ".log") != 0:
             sys.exit(f"terrain_sweep.py: vims_offline failed, see {out}.log")
         figures = eval_run(bin_dir, seq, out)
         scenario, slope, rough = world

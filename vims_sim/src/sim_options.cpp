@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "vims_sim/rig_file.h"
+
 namespace vims {
 namespace sim {
 namespace {
@@ -124,6 +126,31 @@ std::string SimOptions::sequenceName() const {
   return dir.filename().string();
 }
 
+namespace {
+
+/// The checks of what a rig file may set (rig_file.h), also run on the file alone.
+void validateRig(const SimOptions& options) {
+  if (options.image_width < 160 || options.image_width > 2048)
+    throw argError("--image-width", "must be in [160, 2048] px, got " + std::to_string(options.image_width));
+  if (options.image_height < 120 || options.image_height > 2048)
+    throw argError("--image-height", "must be in [120, 2048] px, got " + std::to_string(options.image_height));
+  requireInRange("--camera-tilt-deg", options.camera_tilt_deg, -45.0, 45.0, "deg");
+  requireInRange("--camera-roll-deg", options.camera_roll_deg, -180.0, 180.0, "deg");
+  requireInRange("--camera-rate-hz", options.rates.camera, 5.0, 30.0, "Hz");
+  requireInRange("--imu-rate-hz", options.rates.imu, 100.0, 1000.0, "Hz");
+  requireInRange("--sonar-rate-hz", options.rates.sonar, 1.0, 20.0, "Hz");
+  requireInRange("--mag-rate-hz", options.rates.magnetometer, 200.0, 2000.0, "Hz");
+}
+
+int parseInteger(const std::string& flag, const std::string& text) {
+  const double value = parseDouble(flag, text);
+  if (value != std::floor(value) || std::abs(value) > 1.0e6)
+    throw argError(flag, "expected an integer, got '" + text + "'");
+  return static_cast<int>(value);
+}
+
+}  // namespace
+
 void SimOptions::validate() const {
   if (!(duration > 0.0)) throw argError("--duration", "must be > 0 seconds");
   if (duration > 1.0e5) throw argError("--duration", "must be at most 100000 seconds");
@@ -164,10 +191,7 @@ void SimOptions::validate() const {
   requireInRange("--lamp-power", mission.lamp_power, 0.1, 3.0, "(x the default lamp's)");
   requireInRange("--seabed-change", mission.seabed_change, 0.0, 0.6, "(fraction of the area)");
   requireInRange("--sonar-max-range", sonar_max_range, 1.0, 100.0, "m");
-  requireInRange("--camera-rate-hz", rates.camera, 5.0, 30.0, "Hz");
-  requireInRange("--imu-rate-hz", rates.imu, 100.0, 1000.0, "Hz");
-  requireInRange("--sonar-rate-hz", rates.sonar, 1.0, 20.0, "Hz");
-  requireInRange("--mag-rate-hz", rates.magnetometer, 200.0, 2000.0, "Hz");
+  validateRig(*this);
   if (!other_coil_frequencies_hz.empty()) {
     // Several coils: every frequency as --coil-frequency's, pairwise 1 Hz apart (two bins of the
     // signature's 2 s window, so the lines separate), the same drift for all (it keeps them apart).
@@ -269,13 +293,20 @@ std::vector<double> parseFrequencyList(const std::string& flag, const std::strin
 
 }  // namespace
 
-std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& args) {
-  SimOptions options;
-  bool have_scenario = false, have_duration = false, have_seed = false, have_out = false, altitude_hold = false;
-  bool have_coil_frequency = false, have_coil_frequencies = false;
+namespace {
+
+/// What the flags said beyond the options' values: which required ones came, and the choices
+/// that exclude others.
+struct FlagsSeen {
+  bool scenario = false, duration = false, seed = false, out = false;
+  bool altitude_hold = false, coil_frequency = false, coil_frequencies = false;
+};
+
+/// Applies the flags of `args` to `options`; false for --help.
+bool applyFlags(const std::vector<std::string>& args, SimOptions& options, FlagsSeen& seen) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& flag = args[i];
-    if (flag == "--help" || flag == "-h") return std::nullopt;
+    if (flag == "--help" || flag == "-h") return false;
     if (flag == "--lz4") {
       options.lz4 = true;
       continue;
@@ -294,7 +325,7 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     }
     if (flag == "--altitude-hold") {
       if (options.depth_hold_z) throw argError(flag, "conflicts with --depth-hold");
-      altitude_hold = true;
+      seen.altitude_hold = true;
       continue;
     }
     if (flag == "--reverse-lap") {
@@ -312,17 +343,17 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     if (flag == "--scenario") {
       if (value != "tank" && value != "field") throw argError(flag, "expected 'tank' or 'field', got '" + value + "'");
       options.scenario = parseScenario(value);
-      have_scenario = true;
+      seen.scenario = true;
     } else if (flag == "--duration") {
       options.duration = parseDouble(flag, value);
-      have_duration = true;
+      seen.duration = true;
     } else if (flag == "--seed") {
       options.seed = parseSeed(flag, value);
-      have_seed = true;
+      seen.seed = true;
     } else if (flag == "--out") {
       if (value.empty()) throw argError(flag, "empty directory");
       options.out_dir = value;
-      have_out = true;
+      seen.out = true;
     } else if (flag == "--name") {
       if (value.empty() || value.find('/') != std::string::npos)
         throw argError(flag, "expected a file-name stem, got '" + value + "'");
@@ -368,7 +399,7 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     } else if (flag == "--terrain-rock-density") {
       options.terrain.rock_density = parseDouble(flag, value);
     } else if (flag == "--depth-hold") {
-      if (altitude_hold) throw argError(flag, "conflicts with --altitude-hold");
+      if (seen.altitude_hold) throw argError(flag, "conflicts with --altitude-hold");
       if (options.hold_plane_only) throw argError(flag, "conflicts with --hold-plane-only");
       options.depth_hold_z = parseDouble(flag, value);
     } else if (flag == "--sonar-max-range") {
@@ -380,15 +411,15 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
     } else if (flag == "--pressure-spikes") {
       options.pressure.spike_fraction = parseDouble(flag, value);
     } else if (flag == "--coil-frequency") {
-      if (have_coil_frequencies) throw argError(flag, "conflicts with --coil-frequencies");
+      if (seen.coil_frequencies) throw argError(flag, "conflicts with --coil-frequencies");
       options.coil_frequency_hz = parseDouble(flag, value);
-      have_coil_frequency = true;
+      seen.coil_frequency = true;
     } else if (flag == "--coil-frequencies") {
-      if (have_coil_frequency) throw argError(flag, "conflicts with --coil-frequency (list every coil's frequency)");
+      if (seen.coil_frequency) throw argError(flag, "conflicts with --coil-frequency (list every coil's frequency)");
       const std::vector<double> list = parseFrequencyList(flag, value);
       options.coil_frequency_hz = list.front();
       options.other_coil_frequencies_hz.assign(list.begin() + 1, list.end());
-      have_coil_frequencies = true;
+      seen.coil_frequencies = true;
     } else if (flag == "--coil-spacing") {
       options.coil_spacing_m = parseDouble(flag, value);
     } else if (flag == "--coil-frequency-drift-hz") {
@@ -442,14 +473,53 @@ std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& ar
       const double threads = parseDouble(flag, value);
       if (threads != std::floor(threads)) throw argError(flag, "expected an integer, got '" + value + "'");
       options.render_threads = static_cast<int>(std::max(-1.0, std::min(threads, 1000.0)));
+    } else if (flag == "--image-width") {
+      options.image_width = parseInteger(flag, value);
+    } else if (flag == "--image-height") {
+      options.image_height = parseInteger(flag, value);
+    } else if (flag == "--camera-tilt-deg") {
+      options.camera_tilt_deg = parseDouble(flag, value);
+    } else if (flag == "--camera-roll-deg") {
+      options.camera_roll_deg = parseDouble(flag, value);
     } else {
       throw argError(flag, "unknown option (see --help)");
     }
   }
-  if (!have_scenario) throw argError("--scenario", "is required (tank or field)");
-  if (!have_duration) throw argError("--duration", "is required (seconds)");
-  if (!have_seed) throw argError("--seed", "is required (a non-negative integer)");
-  if (!have_out) throw argError("--out", "is required (output directory)");
+  return true;
+}
+
+}  // namespace
+
+std::optional<SimOptions> parseSimCommandLine(const std::vector<std::string>& command_line) {
+  // --rig FILE: the file's flags are applied first, so a flag on the command line overrides them.
+  std::string rig_path;
+  std::vector<std::string> args;
+  for (size_t i = 0; i < command_line.size(); ++i) {
+    if (command_line[i] != "--rig") {
+      args.push_back(command_line[i]);
+      continue;
+    }
+    if (i + 1 >= command_line.size()) throw argError("--rig", "missing value");
+    if (!rig_path.empty()) throw argError("--rig", "given twice");
+    rig_path = command_line[++i];
+  }
+  SimOptions options;
+  FlagsSeen seen;
+  if (!rig_path.empty()) {
+    try {
+      applyFlags(rigFileArguments(rig_path), options, seen);
+      validateRig(options);
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      if (what.rfind("--rig ", 0) == 0) throw;
+      throw std::invalid_argument("--rig " + rig_path + ": " + what);
+    }
+  }
+  if (!applyFlags(args, options, seen)) return std::nullopt;
+  if (!seen.scenario) throw argError("--scenario", "is required (tank or field)");
+  if (!seen.duration) throw argError("--duration", "is required (seconds)");
+  if (!seen.seed) throw argError("--seed", "is required (a non-negative integer)");
+  if (!seen.out) throw argError("--out", "is required (output directory)");
   options.validate();
   return options;
 }
@@ -521,6 +591,14 @@ Options:
   --lz4                    write lz4-compressed bag chunks
   --distortion-model M     radtan (default: pinhole, 60 deg across) or equidistant (fisheye behind
                            a dome port, about 110 deg across)
+  --image-width W, --image-height H  the image size, 160-2048 x 120-2048 px (default 640 x 480);
+                           the focal length scales with the width (the field of view stays)
+  --camera-tilt-deg D      the camera's optical axis turned from straight down towards the bow by D
+                           deg (-45 to 45, negative: towards the stern; default 0)
+  --camera-roll-deg R      the camera turned about its optical axis by R deg (-180 to 180; default 0:
+                           the image's up towards the bow)
+  --rig FILE               a rig file (config/rigs/*.yaml): the camera, mounting and rate flags above
+                           as `flag: value` (without the dashes); flags on the command line override it
   --image-format F         raw (default: sensor_msgs/Image mono8), png (lossless) or jpeg (quality 95):
                            sensor_msgs/CompressedImage on /cam0/image_raw/compressed
   --threads N              render threads (default 0: one per hardware thread)

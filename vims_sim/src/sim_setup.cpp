@@ -244,19 +244,22 @@ SimSetup buildSimSetup(const SimOptions& options) {
   Rng rig(deriveSeed(options.rigSeed(), kStreamRig));
   SequenceConfig& cfg = setup.config;
   cfg.camera.model = "pinhole";
-  cfg.camera.width = 640;
-  cfg.camera.height = 480;
-  cfg.camera.fx = 420.0 * (1.0 + rig.uniform(-0.01, 0.01));
+  // The focal length and the principal point's offset scale with the width: the field of view
+  // across the width is the lens's at any image size.
+  const double pixel_scale = options.image_width / 640.0;
+  cfg.camera.width = options.image_width;
+  cfg.camera.height = options.image_height;
+  cfg.camera.fx = 420.0 * pixel_scale * (1.0 + rig.uniform(-0.01, 0.01));
   cfg.camera.fy = cfg.camera.fx * (1.0 + rig.uniform(-0.003, 0.003));
-  cfg.camera.cx = 319.5 + rig.uniform(-4.0, 4.0);
-  cfg.camera.cy = 239.5 + rig.uniform(-4.0, 4.0);
+  cfg.camera.cx = 0.5 * (options.image_width - 1) + pixel_scale * rig.uniform(-4.0, 4.0);
+  cfg.camera.cy = 0.5 * (options.image_height - 1) + pixel_scale * rig.uniform(-4.0, 4.0);
   cfg.camera.distortion = {rig.uniform(-0.08, -0.04), rig.uniform(0.0, 0.015), rig.uniform(-5e-4, 5e-4),
                            rig.uniform(-5e-4, 5e-4)};
   if (options.distortion_model == "equidistant") {
     // A fisheye behind a dome port: r = f theta_d, so 320 px at f = 290 px is 63 deg off axis
     // (after the k1..k4 series, typical magnitudes of calibrated fisheyes).
     cfg.camera.distortion_model = DistortionModel::kEquidistant;
-    cfg.camera.fx = 290.0 * (1.0 + rig.uniform(-0.01, 0.01));
+    cfg.camera.fx = 290.0 * pixel_scale * (1.0 + rig.uniform(-0.01, 0.01));
     cfg.camera.fy = cfg.camera.fx * (1.0 + rig.uniform(-0.003, 0.003));
     cfg.camera.distortion = {rig.uniform(-0.03, -0.01), rig.uniform(0.0, 0.01), rig.uniform(-0.003, 0.0),
                              rig.uniform(0.0, 0.001)};
@@ -266,6 +269,14 @@ SimSetup buildSimSetup(const SimOptions& options) {
   // Camera looking down, image "up" towards the bow: x_c = -y_b (starboard), y_c = -x_b, z_c = -z_b.
   Eigen::Matrix3d R_b_c_nominal;
   R_b_c_nominal << 0, -1, 0, -1, 0, 0, 0, 0, -1;
+  // The mounting: turned about its optical axis (in the camera frame), then tilted about the
+  // body's y axis (port), the optical axis from -z_b towards +x_b (the bow) for a positive tilt.
+  if (options.camera_roll_deg != 0.0) {
+    R_b_c_nominal = R_b_c_nominal * Eigen::AngleAxisd(options.camera_roll_deg * kDeg, Eigen::Vector3d::UnitZ());
+  }
+  if (options.camera_tilt_deg != 0.0) {
+    R_b_c_nominal = Eigen::AngleAxisd(-options.camera_tilt_deg * kDeg, Eigen::Vector3d::UnitY()) * R_b_c_nominal;
+  }
   cfg.camera.T_b_c = makeTransform(R_b_c_nominal * smallRotation(rig, 2.0 * kDeg),
                                    jitter(rig, Eigen::Vector3d(0.25, 0.0, -0.08), Eigen::Vector3d(0.03, 0.03, 0.02)));
 

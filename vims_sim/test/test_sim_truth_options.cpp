@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "sim_options_test_support.h"
 #include "vims_common/config_reader.h"
 #include "vims_common/sequence_config.h"
 #include "vims_sim/sim_options.h"
@@ -30,15 +31,6 @@ SimTruth savedAndLoaded(const SimTruth& truth, const std::string& stem) {
   SimTruth loaded = SimTruth::load(path.string());
   fs::remove(path);
   return loaded;
-}
-
-std::string errorOf(const std::vector<std::string>& args) {
-  try {
-    parseSimCommandLine(args);
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
 }
 
 }  // namespace
@@ -179,35 +171,43 @@ TEST(SimCommandLine, ErrorsNameTheArgument) {
     args.insert(args.end(), extra.begin(), extra.end());
     return args;
   };
-  EXPECT_NE(errorOf({"--duration", "20", "--seed", "1", "--out", "d"}).find("--scenario"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--image-format", "bmp"})).find("--image-format: expected raw, png or jpeg"),
+  EXPECT_NE(test::commandLineError({"--duration", "20", "--seed", "1", "--out", "d"}).find("--scenario"),
+            std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--image-format", "bmp"})).find("--image-format: expected raw, png or jpeg"),
             std::string::npos)
-      << errorOf(with({"--image-format", "bmp"}));
-  EXPECT_NE(errorOf({"--scenario", "tank", "--seed", "1", "--out", "d"}).find("--duration"), std::string::npos);
-  EXPECT_NE(errorOf({"--scenario", "tank", "--duration", "5", "--out", "d"}).find("--seed"), std::string::npos);
-  EXPECT_NE(errorOf({"--scenario", "tank", "--duration", "5", "--seed", "1"}).find("--out"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--scenario", "lake"})).find("--scenario"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--duration", "abc"})).find("--duration"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--duration", "-3"})).find("--duration"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--seed", "-1"})).find("--seed"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--camera-off", "5"})).find("--camera-off"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--imu-gap", "6:5"})).find("--imu-gap"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--mag-off", "x:5"})).find("--mag-off"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--static-start", "25"})).find("--static-start"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--camera-delay", "2"})).find("--camera-delay"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--bogus", "1"})).find("--bogus"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--world-seed"})).find("--world-seed"), std::string::npos);
-  EXPECT_NE(errorOf(with({"stray"})).find("stray"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--magnetic-anomaly-ut", "-1"})).find("--magnetic-anomaly-ut"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--thruster-line-nt", "100"})).find("--thruster-line-nt: needs --thrusters"),
+      << test::commandLineError(with({"--image-format", "bmp"}));
+  EXPECT_NE(test::commandLineError({"--scenario", "tank", "--seed", "1", "--out", "d"}).find("--duration"),
             std::string::npos);
-  EXPECT_NE(errorOf(with({"--thrusters", "--thruster-hard-iron-ut", "-2"})).find("--thruster-hard-iron-ut"),
+  EXPECT_NE(test::commandLineError({"--scenario", "tank", "--duration", "5", "--out", "d"}).find("--seed"),
             std::string::npos);
-  EXPECT_NE(errorOf(with({"--coil-frequency-drift-hz", "3"})).find("--coil-frequency-drift-hz"), std::string::npos);
+  EXPECT_NE(test::commandLineError({"--scenario", "tank", "--duration", "5", "--seed", "1"}).find("--out"),
+            std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--scenario", "lake"})).find("--scenario"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--duration", "abc"})).find("--duration"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--duration", "-3"})).find("--duration"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--seed", "-1"})).find("--seed"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--camera-off", "5"})).find("--camera-off"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--imu-gap", "6:5"})).find("--imu-gap"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--mag-off", "x:5"})).find("--mag-off"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--static-start", "25"})).find("--static-start"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--camera-delay", "2"})).find("--camera-delay"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--bogus", "1"})).find("--bogus"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--world-seed"})).find("--world-seed"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"stray"})).find("stray"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--magnetic-anomaly-ut", "-1"})).find("--magnetic-anomaly-ut"),
+            std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--thruster-line-nt", "100"})).find("--thruster-line-nt: needs --thrusters"),
+            std::string::npos);
   EXPECT_NE(
-      errorOf(with({"--coil-frequency", "2.5", "--coil-frequency-drift-hz", "-1"})).find("--coil-frequency-drift-hz"),
+      test::commandLineError(with({"--thrusters", "--thruster-hard-iron-ut", "-2"})).find("--thruster-hard-iron-ut"),
       std::string::npos);
-  EXPECT_NE(errorOf(with({"--magnetic-anomaly-width-m", "1"})).find("--magnetic-anomaly-width-m"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--coil-frequency-drift-hz", "3"})).find("--coil-frequency-drift-hz"),
+            std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--coil-frequency", "2.5", "--coil-frequency-drift-hz", "-1"}))
+                .find("--coil-frequency-drift-hz"),
+            std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--magnetic-anomaly-width-m", "1"})).find("--magnetic-anomaly-width-m"),
+            std::string::npos);
 }
 
 TEST(SimSetup, WorldSeedFixesTheSiteAndSeedFixesTheRig) {
@@ -393,7 +393,7 @@ TEST(SimCommandLine, TerrainPresetsAndOverrides) {
 
 TEST(SimCommandLine, TerrainAndPressureErrorsNameTheFlag) {
   auto expectError = [](const std::vector<std::string>& extra, const std::string& flag) {
-    const std::string error = errorOf(withBase(extra));
+    const std::string error = test::commandLineError(withBase(extra));
     EXPECT_EQ(error.rfind(flag + ":", 0), 0u) << "'" << error << "' for " << extra.front();
   };
   expectError({"--terrain", "moon"}, "--terrain");
@@ -749,11 +749,11 @@ TEST(SimCommandLine, RepeatMissionConditionsParseReachTheSetUpAndTheTruthOnly) {
   EXPECT_EQ(loaded.mission.seabed_change, 0.2);
   EXPECT_EQ(loaded.toYaml(), setup.truth.toYaml());
 
-  EXPECT_NE(errorOf(with({"--altitude-offset-m", "4"})).find("--altitude-offset-m"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--depth-hold", "5", "--altitude-offset-m", "1"})).find("--altitude-offset-m"),
+  EXPECT_NE(test::commandLineError(with({"--altitude-offset-m", "4"})).find("--altitude-offset-m"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--depth-hold", "5", "--altitude-offset-m", "1"})).find("--altitude-offset-m"),
             std::string::npos);
-  EXPECT_NE(errorOf(with({"--turbidity", "0.5"})).find("--turbidity"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--lamp-power", "0"})).find("--lamp-power"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--seabed-change", "0.9"})).find("--seabed-change"), std::string::npos);
-  EXPECT_NE(errorOf(with({"--start-along-lap-m", "-1"})).find("--start-along-lap-m"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--turbidity", "0.5"})).find("--turbidity"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--lamp-power", "0"})).find("--lamp-power"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--seabed-change", "0.9"})).find("--seabed-change"), std::string::npos);
+  EXPECT_NE(test::commandLineError(with({"--start-along-lap-m", "-1"})).find("--start-along-lap-m"), std::string::npos);
 }

@@ -66,6 +66,15 @@ struct SimOptions {
   /// The camera's lens: "radtan" (a mildly distorted pinhole, 60 deg across) or "equidistant"
   /// (a fisheye behind a dome port, Kannala-Brandt, about 110 deg across).
   std::string distortion_model = "radtan";
+  /// The image size [px]. The focal length scales with the width, so the lens's field of view
+  /// across the width stays; the height sets the aspect.
+  int image_width = 640;
+  int image_height = 480;
+  /// The camera's mounting: its optical axis turned from straight down towards the bow by
+  /// camera_tilt_deg (negative: towards the stern), and the camera turned about its optical axis
+  /// by camera_roll_deg (0: the image's "up" towards the bow).
+  double camera_tilt_deg = 0.0;
+  double camera_roll_deg = 0.0;
   double coil_frequency_hz = 11.0;      ///< the (first) seabed coil's frequency
   bool coil_frequency_unknown = false;  ///< the sequence YAML leaves the coil frequency open (null)
   /// Further coils (--coil-frequencies F1,F2,...: coil_frequency_hz = F1, this = {F2, ...}); each
