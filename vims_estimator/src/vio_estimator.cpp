@@ -709,6 +709,7 @@ void VioEstimator::emitKeyframe(Frame& frame) {
   kf.T_odom_b = frame.T_l_b();
   kf.port_depth = frame.depth;
   kf.image = frame.image;
+  if (options_.estimate_extrinsic) kf.T_b_c = extrinsicCamera();
   for (const auto& [id, obs] : frame.obs) {
     auto it = features_.find(id);
     if (it == features_.end() || !it->second.has_depth) continue;

@@ -601,6 +601,27 @@ TEST(PointMatching, RatioOneDisablesTheTestAndDuplicatesAreIgnored) {
   EXPECT_EQ(off.size(), 3u);
 }
 
+/// A keyframe at `T_w_b` (odom = world) described as a map keyframe, and the query of the same
+/// image: the loop of a keyframe with itself, whose true relative pose is the identity.
+struct SelfLoop {
+  VisualSubmap submap;
+  LoopQuery query;
+};
+
+SelfLoop selfLoop(const test::TestWorld& world, const Eigen::Isometry3d& T_w_b) {
+  const KeyframeData kf = world.keyframe(10.0, 0, T_w_b, T_w_b);
+  KeyframeDescriber describer(FeatureExtractionOptions(), LoopDetectorOptions().harris_threshold, world.camera());
+  SelfLoop out;
+  DescribedPoints points;
+  out.submap = describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &points);
+  out.query.node = 0;
+  out.query.t = 10.0;
+  out.query.T_odom_b = T_w_b;
+  out.query.bow = out.submap.bow;
+  out.query.points = points;
+  return out;
+}
+
 // A loaded map's keyframes were described by the teach run's camera: the loop's body-to-body
 // pose goes through that run's extrinsic, not this run's (a repeat vehicle's rig differs, or was
 // recalibrated). The same image described as if its camera sat 5 cm further forward on the body
@@ -608,17 +629,9 @@ TEST(PointMatching, RatioOneDisablesTheTestAndDuplicatesAreIgnored) {
 TEST(LoopVerification, ALoadedKeyframeIsSeenThroughItsOwnRunsCameraExtrinsic) {
   test::TestWorld world(kWorldSeed);
   const Eigen::Isometry3d T_w_b = bodyPose(5.0, 5.0, 2.5, 10.0);
-  const KeyframeData kf = world.keyframe(10.0, 0, T_w_b, T_w_b);
-  KeyframeDescriber describer(FeatureExtractionOptions(), LoopDetectorOptions().harris_threshold, world.camera());
-  DescribedPoints points;
-  const VisualSubmap submap =
-      describer.describeKeyframe(kf.image, kf.features, test::vocabulary("orb_k8l4.vocab").get(), &points);
-  LoopQuery q;
-  q.node = 0;
-  q.t = 10.0;
-  q.T_odom_b = T_w_b;
-  q.bow = submap.bow;
-  q.points = points;
+  const SelfLoop self = selfLoop(world, T_w_b);
+  const VisualSubmap& submap = self.submap;
+  const LoopQuery& q = self.query;
   LoopDetectorOptions o = testLoopOptions();
   o.covisibility_neighbours = 0;  // a single keyframe: no neighbours to confirm with
   const auto relativePose = [&](const Eigen::Isometry3d& T_b_c_of_map) {
@@ -637,6 +650,39 @@ TEST(LoopVerification, ALoadedKeyframeIsSeenThroughItsOwnRunsCameraExtrinsic) {
   const Eigen::Isometry3d shifted = relativePose(forward);
   EXPECT_NEAR(shifted.translation().x() - same.translation().x(), 0.05, 0.01);
   EXPECT_LT(std::abs(shifted.translation().y() - same.translation().y()), 0.01);
+}
+
+// With the camera extrinsic refined online (estimator.estimate_extrinsic), this run's keyframes
+// are seen through the VIO's latest estimate: the verifier and the map follow it (the pose
+// graph sets both from each keyframe's KeyframeData::T_b_c), a loaded session keeps its own.
+TEST(LoopVerification, ThisRunsKeyframesAreSeenThroughTheVioEstimatedExtrinsic) {
+  test::TestWorld world(kWorldSeed);
+  const Eigen::Isometry3d T_w_b = bodyPose(5.0, 5.0, 2.5, 10.0);
+  const SelfLoop self = selfLoop(world, T_w_b);
+  const VisualSubmap& submap = self.submap;
+  const LoopQuery& q = self.query;
+  LoopDetectorOptions o = testLoopOptions();
+  o.covisibility_neighbours = 0;
+  MultiScaleMap map(test::vocabulary("orb_k8l4.vocab"), PoseGraphOptions(), 0.0);
+  map.setRunCameraExtrinsic(world.camera().T_b_c);
+  const uint32_t loaded = map.addSession(0, true);
+  const uint32_t run = map.addSession(1, false);
+  map.addNode(0.0, run, T_w_b, T_w_b.translation(), 0.0, submap, true);
+  LoopVerifier verifier(o, world.camera());
+  const VerificationResult calibrated = verifier.verify(q, map, 0);
+  ASSERT_EQ(calibrated.stage, LoopStage::kAccepted);
+  EXPECT_LT(calibrated.T_match_query.translation().norm(), 0.01);
+
+  Eigen::Isometry3d estimated = world.camera().T_b_c;
+  estimated.translation().x() += 0.05;
+  verifier.setRunCameraExtrinsic(estimated);
+  map.setRunCameraExtrinsic(estimated);
+  const VerificationResult refined = verifier.verify(q, map, 0);
+  ASSERT_EQ(refined.stage, LoopStage::kAccepted);
+  EXPECT_NEAR(refined.T_match_query.translation().x() - calibrated.T_match_query.translation().x(), 0.05, 0.01);
+  // This run's session is saved with the estimate; the loaded one keeps its file's.
+  EXPECT_TRUE(map.sessions()[run].T_b_c.isApprox(estimated, 0.0));
+  EXPECT_TRUE(map.sessions()[loaded].T_b_c.isApprox(world.camera().T_b_c, 0.0));
 }
 
 }  // namespace

@@ -185,6 +185,32 @@ TEST(PoseGraphManager, EmptyBlackAndInvalidKeyframesHaveDefinedBehaviour) {
   });
 }
 
+// The VIO refining the camera extrinsic online hands its estimate with each keyframe: this run's
+// sessions (what a saved map records, and what loops are verified through) follow the latest;
+// a non-finite one is logged and ignored.
+TEST(PoseGraphManager, ThisRunsSessionsFollowTheVioEstimatedExtrinsic) {
+  const SimRun& run = runA();
+  const PoseGraphManagerOptions o = testOptions();
+  test::LogRecorder log;
+  PoseGraphManager m(o, test::testSequence(), vocabularyFor(o), log.logger());
+  Eigen::Isometry3d estimated = test::testSequence().camera.T_b_c;
+  estimated.translation().x() += 0.01;
+  estimated.linear() = estimated.linear() * Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  for (size_t i = 0; i < 6; ++i) {
+    KeyframeData kf = run.keyframes[i];
+    kf.T_b_c = estimated;
+    if (i == 5) kf.T_b_c->translation().y() = std::nan("");
+    m.feedKeyframe(kf);
+  }
+  m.finish();
+  EXPECT_EQ(m.stats().keyframes, 6u);
+  EXPECT_TRUE(log.contains("non-finite camera extrinsic ignored"));
+  m.inspectMap([&](const MultiScaleMap& map) {
+    ASSERT_EQ(map.sessions().size(), 1u);
+    EXPECT_TRUE(map.sessions()[0].T_b_c.isApprox(estimated, 0.0));
+  });
+}
+
 /// Re-flying a mapped line: pass 1 east along y = 0 at 2.5 m; pass 2 back west 0.15 m beside it
 /// at 2.55 m (the same place: its submaps are redundant); pass 3 east over pass 1 but 1 m higher
 /// (another scale: kept); pass 4 west 1.5 m beside pass 1 (outside the radius: kept). Returns the

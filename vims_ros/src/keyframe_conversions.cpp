@@ -72,6 +72,13 @@ bool toKeyframeData(const vims::Keyframe& msg, KeyframeData* out, std::string* w
     if (!std::isfinite(msg.port_depth)) return fail(why, "keyframe port depth is not finite");
     keyframe.port_depth = msg.port_depth;
   }
+  if (msg.has_T_b_c) {
+    Eigen::Isometry3d T_b_c;
+    std::string extrinsic_problem;
+    if (!toIsometry(msg.T_b_c, &T_b_c, &extrinsic_problem))
+      return fail(why, "keyframe camera extrinsic: " + extrinsic_problem);
+    keyframe.T_b_c = T_b_c;
+  }
   keyframe.features.reserve(msg.features.size());
   for (const vims::KeyframeFeature& f : msg.features) {
     KeyframeLandmark feature;
@@ -125,6 +132,10 @@ bool toKeyframeMsg(const KeyframeData& keyframe, const std::string& odom_frame_i
     return fail(why, "keyframe port depth is not finite");
   msg.has_port_depth = keyframe.port_depth.has_value();
   msg.port_depth = keyframe.port_depth.value_or(0.0);
+  if (keyframe.T_b_c && !keyframe.T_b_c->matrix().allFinite())
+    return fail(why, "keyframe camera extrinsic is not finite");
+  msg.has_T_b_c = keyframe.T_b_c.has_value();
+  if (keyframe.T_b_c) msg.T_b_c = toPoseMsg(*keyframe.T_b_c);
   msg.features.reserve(keyframe.features.size());
   for (const KeyframeLandmark& feature : keyframe.features) {
     vims::KeyframeFeature f;

@@ -52,6 +52,7 @@ TEST(KeyframeConversions, RoundTripKeepsEverything) {
   EXPECT_NEAR(back.t, original.t, 1e-9);
   EXPECT_EQ(back.session, original.session);
   EXPECT_TRUE(back.T_odom_b.isApprox(original.T_odom_b, 1e-12));
+  EXPECT_FALSE(back.T_b_c.has_value());
   ASSERT_EQ(back.features.size(), original.features.size());
   for (size_t i = 0; i < original.features.size(); ++i) {
     EXPECT_EQ(back.features[i].id, original.features[i].id);
@@ -216,4 +217,27 @@ TEST(SignatureConversions, NaNRejectedWhenValidZeroedWhenInvalid) {
   msg.window_start = ros::Time(12.0);
   EXPECT_FALSE(vims::toSignatureWindow(msg, &window, &why));
   EXPECT_NE(why.find("window_start"), std::string::npos) << why;
+}
+
+TEST(KeyframeConversions, TheEstimatedCameraExtrinsicRoundTripsAndABadOneIsRejected) {
+  vims::KeyframeData keyframe = makeKeyframe();
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+  T_b_c.linear() = Eigen::AngleAxisd(0.02, Eigen::Vector3d(1.0, 0.5, -0.2).normalized()).toRotationMatrix();
+  T_b_c.translation() = Eigen::Vector3d(0.25, -0.01, -0.08);
+  keyframe.T_b_c = T_b_c;
+  vims::Keyframe msg;
+  std::string why;
+  ASSERT_TRUE(vims::toKeyframeMsg(keyframe, "odom", &msg, &why)) << why;
+  EXPECT_TRUE(msg.has_T_b_c);
+  vims::KeyframeData back;
+  ASSERT_TRUE(vims::toKeyframeData(msg, &back, &why)) << why;
+  ASSERT_TRUE(back.T_b_c.has_value());
+  EXPECT_TRUE(back.T_b_c->isApprox(T_b_c, 1e-12));
+
+  msg.T_b_c.orientation.w = kNaN;
+  EXPECT_FALSE(vims::toKeyframeData(msg, &back, &why));
+  EXPECT_NE(why.find("keyframe camera extrinsic"), std::string::npos) << why;
+  keyframe.T_b_c->translation().x() = kNaN;
+  EXPECT_FALSE(vims::toKeyframeMsg(keyframe, "odom", &msg, &why));
+  EXPECT_NE(why.find("camera extrinsic is not finite"), std::string::npos) << why;
 }

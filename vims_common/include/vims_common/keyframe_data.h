@@ -29,6 +29,10 @@ struct KeyframeData {
   std::vector<KeyframeLandmark> features;
   /// Depth of the pressure port below the surface at t [m] (sequences with a pressure sensor).
   std::optional<double> port_depth;
+  /// The camera extrinsic (camera optical frame in body) the VIO estimates online
+  /// (estimator.estimate_extrinsic); unset: the VIO uses the sequence YAML's, and so does the
+  /// pose graph.
+  std::optional<Eigen::Isometry3d> T_b_c;
   cv::Mat image;  ///< the keyframe image (CV_8UC1), for ORB description in the pose graph
 };
 

@@ -155,6 +155,8 @@ class LoopVerifier {
   VerificationResult verify(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate) const;
 
   const LoopDetectorOptions& options() const { return options_; }
+  /// This run's camera extrinsic from now on: the VIO's online estimate (the calibration's until then).
+  void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) { T_b_c_ = T_b_c; }
   /// The levels a query descriptor is compared with in `candidate` (and its covisibility
   /// neighbours): predicted from the two camera altitudes when match_level_from_altitude is on,
   /// the descriptor is ORB, and query and candidate share a connected component (comparable
@@ -174,7 +176,7 @@ class LoopVerifier {
   CameraCalibration camera_;
   CameraModel camera_model_;  ///< built once: the consistency check projects every inlier
   FeatureExtractionOptions features_;
-  Eigen::Isometry3d T_b_c_;  ///< this run's camera extrinsic
+  Eigen::Isometry3d T_b_c_;  ///< this run's camera extrinsic (the YAML's, or the VIO's latest estimate)
 };
 
 /// What one detection did (for tests, diagnostics and rviz).
@@ -235,6 +237,8 @@ class HierarchicalLoopDetector {
                                                    const std::vector<PoseGraphNodeId>& exclude = {}) const;
 
   const LoopVerifier& verifier() const { return verifier_; }
+  /// LoopVerifier::setRunCameraExtrinsic.
+  void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) { verifier_.setRunCameraExtrinsic(T_b_c); }
   const ModeSettings& mode() const { return mode_; }
 
  private:

@@ -108,9 +108,11 @@ class MultiScaleMap {
                 double declination_rad, LoggerPtr logger = nullptr);
 
   // ---- building
-  /// The camera extrinsic of this run's sessions (the sequence's T_b_c), set before the first
-  /// session; also what a loaded file of version 1 or 2, which does not record it, is assumed to have.
-  void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) { run_T_b_c_ = T_b_c; }
+  /// The camera extrinsic of this run's sessions: the sequence's T_b_c, set before the first
+  /// session, then the VIO's online estimate as it arrives (every session of this run takes
+  /// the latest; loaded sessions keep their file's). Also what a loaded file of version 1 or 2,
+  /// which does not record it, is assumed to have.
+  void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c);
   /// A new session (a new chain); returns its index.
   uint32_t addSession(uint32_t vio_session, bool loaded);
   /// Appends a keyframe to `session` with its initial world pose (yaw + position; roll and

@@ -86,8 +86,8 @@ KeyframeDescription PoseGraphManagerCore::describe(const KeyframeData& kf) {
   if (!std::isfinite(kf.t) || !isValidPose(kf.T_odom_b)) return {};
   // Submap, tracked points and (query_seabed_corners, via setSeabedCorners) seabed corners in
   // one pass: one pyramid, corner response and ORB description for the keyframe.
-  return describer_.describeKeyframeAndSeabed(kf.image, kf.features, kf.T_odom_b * sequence_.camera.T_b_c,
-                                              vocabulary_.get());
+  return describer_.describeKeyframeAndSeabed(
+      kf.image, kf.features, kf.T_odom_b * kf.T_b_c.value_or(sequence_.camera.T_b_c), vocabulary_.get());
 }
 
 bool PoseGraphManagerCore::wantsQuery(double t) const {
@@ -115,6 +115,18 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
   if (run_nodes_.empty() && !map_loaded_ && map_mode_ != MapMode::kMapping) {
     logger_->warn(kComponent, VIMS_STR("map mode " << toString(map_mode_) << " without a loaded map: mapping instead"));
     setMapMode(MapMode::kMapping);
+  }
+  if (kf.T_b_c) {
+    // The VIO refines the camera extrinsic online: loops verified from now on and this run's
+    // sessions in a saved map use its latest estimate (a keyframe's submap keeps image
+    // coordinates and odom points only, so none depends on the earlier estimates).
+    if (!kf.T_b_c->matrix().allFinite()) {
+      logger_->warnThrottled(kComponent, "bad_extrinsic", kf.t, 5.0,
+                             VIMS_STR("keyframe at t=" << kf.t << ": non-finite camera extrinsic ignored"));
+    } else {
+      map_.setRunCameraExtrinsic(*kf.T_b_c);
+      detector_.setRunCameraExtrinsic(*kf.T_b_c);
+    }
   }
   const bool new_session = !current_session_ || kf.session != current_vio_session_;
   const bool has_previous = !run_nodes_.empty();

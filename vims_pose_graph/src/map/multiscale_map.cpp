@@ -54,6 +54,12 @@ size_t visualSubmapMemoryBytes(const MultiScaleMap& map, PoseGraphNodeId id) {
          map.node(id).bow.entries.capacity() * sizeof(BowEntry);
 }
 
+void MultiScaleMap::setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) {
+  run_T_b_c_ = T_b_c;
+  for (MapSession& session : sessions_)
+    if (!session.loaded) session.T_b_c = T_b_c;
+}
+
 uint32_t MultiScaleMap::addSession(uint32_t vio_session, bool loaded) {
   MapSession s;
   s.vio_session = vio_session;
