@@ -224,5 +224,59 @@ TEST(InputRecording, SignatureWindowsKeepTheirCoilAndVersionOneStillReads) {
   std::remove(path.c_str());
 }
 
+TEST(InputRecording, KeyframesKeepTheirPortDepthAndCameraExtrinsicAndVersionTwoStillReads) {
+  const std::string path = tempPath("keyframes.bin");
+  KeyframeData with;
+  with.t = 5.0;
+  with.session = 1;
+  with.T_odom_b.translation() = Eigen::Vector3d(1.0, 2.0, -3.0);
+  with.port_depth = 8.25;
+  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
+  T_b_c.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.6, -0.8, 0.0)).toRotationMatrix();
+  T_b_c.translation() = Eigen::Vector3d(0.25, 0.01, -0.08);
+  with.T_b_c = T_b_c;
+  KeyframeData without = with;
+  without.t = 6.0;
+  without.port_depth.reset();
+  without.T_b_c.reset();
+  {
+    InputRecorder recorder(path);
+    recorder.write(with);
+    recorder.write(without);
+  }
+  {
+    InputReader reader(path);
+    RecordedInput input;
+    ASSERT_TRUE(reader.next(&input));
+    const KeyframeData& a = std::get<KeyframeData>(input);
+    ASSERT_TRUE(a.port_depth.has_value());
+    EXPECT_EQ(*a.port_depth, 8.25);
+    ASSERT_TRUE(a.T_b_c.has_value());
+    EXPECT_TRUE(a.T_b_c->isApprox(T_b_c, 0.0));
+    EXPECT_TRUE(a.T_odom_b.isApprox(with.T_odom_b, 0.0));
+    ASSERT_TRUE(reader.next(&input));
+    EXPECT_FALSE(std::get<KeyframeData>(input).port_depth.has_value());
+    EXPECT_FALSE(std::get<KeyframeData>(input).T_b_c.has_value());
+    EXPECT_FALSE(reader.next(&input));
+  }
+  // Version 2: a keyframe event without the trailing parts byte.
+  {
+    InputRecorder recorder(path);
+    recorder.write(without);
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  bytes.resize(bytes.size() - 1);
+  bytes[8] = 2;
+  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  InputReader old(path);
+  RecordedInput input;
+  ASSERT_TRUE(old.next(&input));
+  EXPECT_EQ(std::get<KeyframeData>(input).t, 6.0);
+  EXPECT_FALSE(old.next(&input));
+  std::remove(path.c_str());
+}
+
 }  // namespace
 }  // namespace vims

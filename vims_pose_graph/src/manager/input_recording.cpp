@@ -12,8 +12,11 @@ namespace vims {
 
 namespace {
 constexpr char kMagic[8] = {'V', 'I', 'M', 'S', 'P', 'G', 'I', 'N'};
-constexpr uint32_t kVersion = 2;
+// Version 2: a signature's coil index. Version 3: a keyframe's port depth and camera extrinsic.
+constexpr uint32_t kVersion = 3;
 constexpr uint8_t kKeyframe = 1, kSignature = 2, kGeomagnetic = 3;
+/// Which optional parts a keyframe event carries (version 3).
+constexpr uint8_t kHasPortDepth = 1, kHasCameraExtrinsic = 2;
 /// Upper bounds that reject a corrupt count before allocating.
 constexpr uint32_t kMaxLandmarks = 1000000;
 constexpr uint32_t kMaxImageBytes = 256u << 20;
@@ -35,6 +38,19 @@ Eigen::Vector3d getVec(std::ifstream& in, const std::string& path) {
   for (int i = 0; i < 3; ++i) get(in, &v[i], path);
   return v;
 }
+/// A pose as its translation, then its rotation matrix row by row.
+void putPose(std::ofstream& out, const Eigen::Isometry3d& T) {
+  putVec(out, T.translation());
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) put(out, T.linear()(r, c));
+}
+Eigen::Isometry3d getPose(std::ifstream& in, const std::string& path) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = getVec(in, path);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) get(in, &T.linear()(r, c), path);
+  return T;
+}
 }  // namespace
 
 InputRecorder::InputRecorder(const std::string& path) : path_(path), out_(path, std::ios::binary | std::ios::trunc) {
@@ -51,9 +67,7 @@ void InputRecorder::write(const KeyframeData& kf) {
   put(out_, kKeyframe);
   put(out_, kf.t);
   put(out_, kf.session);
-  putVec(out_, kf.T_odom_b.translation());
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) put(out_, kf.T_odom_b.linear()(r, c));
+  putPose(out_, kf.T_odom_b);
   put(out_, static_cast<uint32_t>(kf.features.size()));
   for (const KeyframeLandmark& f : kf.features) {
     put(out_, static_cast<uint64_t>(f.id));
@@ -67,6 +81,9 @@ void InputRecorder::write(const KeyframeData& kf) {
   if (!kf.image.empty()) cv::imencode(".png", kf.image, png);  // lossless: descriptors replay exactly
   put(out_, static_cast<uint32_t>(png.size()));
   if (!png.empty()) out_.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  put(out_, static_cast<uint8_t>((kf.port_depth ? kHasPortDepth : 0) | (kf.T_b_c ? kHasCameraExtrinsic : 0)));
+  if (kf.port_depth) put(out_, *kf.port_depth);
+  if (kf.T_b_c) putPose(out_, *kf.T_b_c);
   check();
 }
 
@@ -118,13 +135,7 @@ bool InputReader::next(RecordedInput* input) {
     KeyframeData kf;
     get(in_, &kf.t, path_);
     get(in_, &kf.session, path_);
-    const Eigen::Vector3d t = getVec(in_, path_);
-    Eigen::Matrix3d R;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) get(in_, &R(r, c), path_);
-    kf.T_odom_b = Eigen::Isometry3d::Identity();
-    kf.T_odom_b.linear() = R;
-    kf.T_odom_b.translation() = t;
+    kf.T_odom_b = getPose(in_, path_);
     uint32_t n = 0;
     get(in_, &n, path_);
     if (n > kMaxLandmarks) throw std::runtime_error("input recording " + path_ + ": corrupt landmark count");
@@ -148,6 +159,16 @@ bool InputReader::next(RecordedInput* input) {
       if (!in_) throw std::runtime_error("input recording " + path_ + ": truncated image");
       kf.image = cv::imdecode(png, cv::IMREAD_UNCHANGED);
       if (kf.image.empty()) throw std::runtime_error("input recording " + path_ + ": undecodable image");
+    }
+    if (version_ >= 3) {
+      uint8_t parts = 0;
+      get(in_, &parts, path_);
+      if (parts & kHasPortDepth) {
+        double depth = 0.0;
+        get(in_, &depth, path_);
+        kf.port_depth = depth;
+      }
+      if (parts & kHasCameraExtrinsic) kf.T_b_c = getPose(in_, path_);
     }
     *input = std::move(kf);
     return true;
