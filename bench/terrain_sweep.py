@@ -28,7 +28,7 @@ import os
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-from bench_common import ROOT, eval_run, prepare_work_dir, run_logged, tool_dir
+from bench_common import ROOT, eval_run, prepare_work_dir, publish_table, run_logged, tool_dir
 
 
 def config_text(model, pressure):
@@ -166,11 +166,8 @@ def main():
                      f"{fmt(r['vio_pct'], 3)} | {fmt(r['vio_rot_deg'], 2)} | {fmt(r['vio_tilt_deg'], 3)} | "
                      f"{fmt(r['global_pct'], 3)} | {fmt(r['global_rot_deg'], 2)} | "
                      f"{r['loops_correct']} / {r['loops_wrong']} |")
-    table = "\n".join(lines)
-    with open(os.path.join(work, "terrain_sweep.md"), "w") as f:
-        f.write(table + "\n")
     svg_plot(rows, os.path.join(work, "terrain_sweep.svg"))
-    print(table)
+    publish_table(work, "terrain_sweep", lines)
 
 
 if __name__ == "__main__":
