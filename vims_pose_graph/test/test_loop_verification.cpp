@@ -301,11 +301,14 @@ TEST(LoopVerification, CovisibilityRejectsAPoseTheNeighboursContradict) {
 
 // Both VIO frames are gravity-aligned: a PnP pose whose "up" disagrees with the candidate's VIO
 // attitude is rejected (pnp_max_tilt_error_deg). The candidate keyframe's VIO attitude is tilted
-// by 4 deg against its image: PnP still finds the true camera, 4 deg from the VIO's.
+// by 4 deg against its image: PnP still finds the true camera, 4 deg from the VIO's. The plain
+// check, as for a loop within a component (a PassMap query is a session of its own, which
+// relocalisation would level instead: test_loop_relocalisation.cpp).
 TEST(LoopVerification, PnpPoseTiltedAgainstTheVioAttitudeIsRejected) {
   test::TestWorld world(kWorldSeed);
   PassMap pass(world, DescriptorType::kOrb);
   LoopDetectorOptions o = testLoopOptions();
+  o.guided_min_inliers = 0;
   ASSERT_GT(o.pnp_max_tilt_error_deg, 0.0);
   const Eigen::Isometry3d T_w_bq = poseWithCameraAt(Eigen::Vector2d(1.5, 0.1), 2.6, 120.0);
   const LoopQuery q = pass.addQuery(world.keyframe(100.0, 1, T_w_bq, T_w_bq), T_w_bq);
@@ -321,6 +324,10 @@ TEST(LoopVerification, PnpPoseTiltedAgainstTheVioAttitudeIsRejected) {
   const VerificationResult bad = LoopVerifier(o, world.camera()).verify(q2, tilted.map, 3);
   EXPECT_EQ(bad.stage, LoopStage::kPnp);
   EXPECT_NEAR(bad.tilt_error_deg, 4.0, 0.5);
+  // Relocalising, the pose is levelled with the wrong attitude: the neighbours contradict it.
+  LoopDetectorOptions relocalising = o;
+  relocalising.guided_min_inliers = testLoopOptions().guided_min_inliers;
+  EXPECT_NE(LoopVerifier(relocalising, world.camera()).verify(q2, tilted.map, 3).stage, LoopStage::kAccepted);
   o.pnp_max_tilt_error_deg = 0.0;  // off: the same candidate gets past PnP
   const VerificationResult unchecked = LoopVerifier(o, world.camera()).verify(q2, tilted.map, 3);
   EXPECT_TRUE(unchecked.has_pose);

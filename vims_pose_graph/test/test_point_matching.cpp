@@ -1,7 +1,7 @@
 /// 3D-2D descriptor matching (matchPointsToKeypoints) against a brute-force reference written
 /// from its definition (loop_detector.h): the matcher groups the candidate's keypoints by octave
 /// and compares a point only with the groups its level window admits, with early exits in the
-/// ratio test; none of that may change a match.
+/// ratio test; none of that may change a match. And the guided matching by projection.
 
 #include <gtest/gtest.h>
 
@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_pose_graph/loop_detector.h"
 
 namespace vims {
@@ -189,6 +190,74 @@ TEST(PointMatching, TiesGoToTheLowerKeypointIndexAcrossOctaves) {
   const std::vector<PointMatch> only5 = matchPointsToKeypoints(p, s, 0.9, 80, 4.0, LevelWindow{4.0, 0.0});
   ASSERT_EQ(only5.size(), 1u);  // level 1 + 4 = octave 5 only: keypoint 2, no competitor
   EXPECT_EQ(only5[0].keypoint, 2u);
+}
+
+// Guided matching (matchPointsByProjection): a point is matched with the closest keypoint near
+// where the pose projects it. Points over a plane 2 m below a pinhole camera, each with a
+// keypoint at its projection (a noisy copy of its descriptor) among random keypoints.
+TEST(PointMatching, ProjectionMatchesOnlyNearThePredictedPixel) {
+  CameraCalibration calibration;
+  calibration.width = 640;
+  calibration.height = 480;
+  calibration.fx = calibration.fy = 400.0;
+  calibration.cx = 320.0;
+  calibration.cy = 240.0;
+  const CameraModel camera(calibration);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.4, 1.4);
+  DescribedPoints points;
+  VisualSubmap candidate;
+  auto addKeypoint = [&](const BinaryDescriptor& d, const Eigen::Vector2d& pixel) {
+    candidate.keypoints.emplace_back(cv::Point2f(static_cast<float>(pixel.x()), static_cast<float>(pixel.y())), 31.0f,
+                                     -1.0f, 0.0f, 0);
+    candidate.descriptors.push_back(d);
+    candidate.normalized.emplace_back(0.0, 0.0);
+  };
+  const int num_points = 60;
+  for (int p = 0; p < num_points; ++p) {
+    const Eigen::Vector3d p_c(u(rng), 0.7 * u(rng), 2.0);
+    points.p_odom.push_back(p_c);
+    points.pixel.emplace_back(0.0, 0.0);
+    points.feature_id.push_back(static_cast<uint64_t>(p));
+    const BinaryDescriptor d = randomDescriptor(rng);
+    points.descriptors.push_back(d);
+    points.point_of_descriptor.push_back(static_cast<uint32_t>(p));
+    points.level_of_descriptor.push_back(0);
+    addKeypoint(flipped(d, 20, rng), *camera.project(p_c));
+  }
+  for (int k = 0; k < 300; ++k)
+    addKeypoint(randomDescriptor(rng), Eigen::Vector2d(640.0 * (u(rng) + 1.4) / 2.8, 480.0 * (u(rng) + 1.4) / 2.8));
+  // A point behind the camera has no projection.
+  points.p_odom.emplace_back(0.0, 0.0, -2.0);
+  points.pixel.emplace_back(0.0, 0.0);
+  points.feature_id.push_back(num_points);
+  points.descriptors.push_back(candidate.descriptors[0]);
+  points.point_of_descriptor.push_back(num_points);
+  points.level_of_descriptor.push_back(0);
+
+  const auto correct = [&](const std::vector<PointMatch>& matches) {
+    int n = 0;
+    for (const PointMatch& m : matches) n += m.point == m.keypoint ? 1 : 0;
+    return n;
+  };
+  const LevelWindow any = LevelWindow::around(-1);
+  const std::vector<PointMatch> exact =
+      matchPointsByProjection(points, candidate, camera, Eigen::Isometry3d::Identity(), 10.0, 0.9, 80, 4.0, any);
+  EXPECT_EQ(correct(exact), num_points);
+  EXPECT_EQ(exact.size(), static_cast<size_t>(num_points));
+  // A pose 6 cm off (12 px at 2 m): within a 20 px radius, not within 10 px.
+  Eigen::Isometry3d off = Eigen::Isometry3d::Identity();
+  off.translation().x() = 0.06;
+  EXPECT_EQ(correct(matchPointsByProjection(points, candidate, camera, off, 20.0, 0.9, 80, 4.0, any)), num_points);
+  EXPECT_EQ(correct(matchPointsByProjection(points, candidate, camera, off, 10.0, 0.9, 80, 4.0, any)), 0);
+  // A second keypoint as close in descriptor 6 px from point 0's: ambiguous, unless ratio 1.
+  addKeypoint(candidate.descriptors[0], *camera.project(points.p_odom[0]) + Eigen::Vector2d(6.0, 0.0));
+  const auto matched0 = [](const std::vector<PointMatch>& matches) {
+    return std::any_of(matches.begin(), matches.end(), [](const PointMatch& m) { return m.point == 0; });
+  };
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  EXPECT_FALSE(matched0(matchPointsByProjection(points, candidate, camera, I, 10.0, 0.9, 80, 4.0, any)));
+  EXPECT_TRUE(matched0(matchPointsByProjection(points, candidate, camera, I, 10.0, 1.0, 80, 4.0, any)));
 }
 
 }  // namespace

@@ -295,6 +295,26 @@ struct LoopDetectorOptions {
   /// absorbs, adds to its residuals. 0 disables.
   double pnp_vertical_check_threshold_scale = 2.0;
 
+  // --- relocalisation: guided matching
+  /// Against a candidate the query's run is not joined to yet (another connected component: a
+  /// loaded map before relocalisation, or the run's session before a VIO reset) verification
+  /// tries harder, as ORB-SLAM's relocalisation does: the query's seabed corners are matched
+  /// too, whatever the altitudes, and a PnP consensus of at least this many inliers that falls
+  /// short of pnp_min_inliers or is tilted beyond pnp_max_tilt_error_deg is a hypothesis: it is
+  /// levelled (both keyframes' roll and pitch from their VIO attitudes, refineLoopMeasurement),
+  /// widened by matching every query point near its projection (matchPointsByProjection) and
+  /// levelled again on what it explains; then its inliers are recounted against pnp_min_inliers
+  /// and the covisibility check follows as for any candidate. Reason: a place flown again the
+  /// other way and 1-1.5 m to the side shares half of its view; the ratio test over the whole
+  /// image found 9-24 of the hundreds of corners both images see, and the PnP pose of such a
+  /// one-sided consensus was tilted 2-7 deg (docs/pose_graph.md, "Relocalisation: guided
+  /// matching"). Loops within a component, which come by the hundred, keep the plain checks.
+  /// 0 disables.
+  int guided_min_inliers = 12;
+  /// [px] Radius of the guided search around each projection: covers the error of a levelled
+  /// pose from a dozen inliers at the image's edge.
+  double guided_search_radius_px = 10.0;
+
   // --- covisibility
   /// The match's temporal neighbours (same session, up to this many keyframes with a visual
   /// submap either side, stepping over ones without within 2x this many keyframes) must

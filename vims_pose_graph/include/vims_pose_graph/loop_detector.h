@@ -18,6 +18,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -143,6 +144,19 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
                                                double ratio, int max_distance, double duplicate_radius_px,
                                                const LevelWindow& levels);
 
+/// Guided matching (search by projection, as ORB-SLAM's relocalisation widens a weak PnP
+/// consensus): each query point is projected into the candidate image with T_c_odom (the
+/// candidate camera from the query's VIO frame, e.g. a PnP pose) and matched with the keypoint
+/// of least descriptor distance within radius_px of its projection, when that distance is within
+/// max_distance and below ratio times the second best within the radius (the second taken among
+/// keypoints farther than duplicate_radius_px from the best, as in matchPointsToKeypoints). A
+/// keypoint claimed by several points keeps the closest. Points behind the camera or projecting
+/// outside the image are skipped.
+std::vector<PointMatch> matchPointsByProjection(const DescribedPoints& points, const VisualSubmap& candidate,
+                                                const CameraModel& camera, const Eigen::Isometry3d& T_c_odom,
+                                                double radius_px, double ratio, int max_distance,
+                                                double duplicate_radius_px, const LevelWindow& levels);
+
 /// Stateless verifier (matching, PnP, covisibility) against a map.
 class LoopVerifier {
  public:
@@ -167,6 +181,35 @@ class LoopVerifier {
   /// The camera extrinsic of a map keyframe: its loaded session's (another run's rig), or this
   /// run's.
   const Eigen::Isometry3d& extrinsicOf(const MultiScaleMap& map, PoseGraphNodeId node) const;
+  /// The candidate camera's pose in the query's VIO frame (T_c_odom) from `matches`: the
+  /// known-vertical consensus (R_odom_c: the candidate camera's VIO attitude), P3P RANSAC and LM
+  /// on its inliers, when a consensus of min_inliers exists. *num_inliers: the consensus found.
+  std::optional<Eigen::Isometry3d> pnpPose(const DescribedPoints& points, const std::vector<PointMatch>& matches,
+                                           const VisualSubmap& sub, const Eigen::Matrix3d& R_odom_c, int min_inliers,
+                                           int* num_inliers) const;
+  /// LM refinement of the pose (rvec, tvec) on object-image pairs in normalised coordinates.
+  std::optional<Eigen::Isometry3d> refinedPose(const std::vector<cv::Point3d>& object,
+                                               const std::vector<cv::Point2d>& image, cv::Mat rvec, cv::Mat tvec) const;
+  /// The matches within pnp_reprojection_px of their projections under T_c_odom.
+  std::vector<std::pair<uint32_t, uint32_t>> inliersUnder(const DescribedPoints& points,
+                                                          const std::vector<PointMatch>& matches,
+                                                          const VisualSubmap& sub,
+                                                          const Eigen::Isometry3d& T_c_odom) const;
+  /// The pose with the query's and the candidate's roll and pitch those of their VIO attitudes
+  /// (refineLoopMeasurement) fitted to the matches within the inlier threshold of T_c_odom;
+  /// nothing when fewer than guided_min_inliers are or the fit fails.
+  std::optional<Eigen::Isometry3d> levelledPose(const LoopQuery& query, const DescribedPoints& points,
+                                                const VisualSubmap& sub, const MapNode& cand,
+                                                const Eigen::Isometry3d& T_bm_cm, const Eigen::Isometry3d& T_c_odom,
+                                                const std::vector<PointMatch>& matches) const;
+  /// The guided search from the hypothesis T_c_odom (LoopDetectorOptions::guided_min_inliers):
+  /// the hypothesis levelled on its inliers among *matches, then *matches becomes the guided
+  /// matches and the levelled pose fitted to them is returned (nothing when the fit fails).
+  std::optional<Eigen::Isometry3d> guidedPose(const LoopQuery& query, const DescribedPoints& points,
+                                              const VisualSubmap& sub, const MapNode& cand,
+                                              const Eigen::Isometry3d& T_bm_cm, const Eigen::Isometry3d& T_c_odom,
+                                              const LevelWindow& levels, std::vector<PointMatch>* matches) const;
+  double pnpThreshold() const { return options_.pnp_reprojection_px / (0.5 * (camera_.fx + camera_.fy)); }
   /// Checks the match's neighbours; returns the number of confirming neighbours.
   int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
                           const Eigen::Isometry3d& T_bm_odomq,

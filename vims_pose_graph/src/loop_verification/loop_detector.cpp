@@ -5,41 +5,17 @@
 #include <cmath>
 #include <iomanip>
 #include <map>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 #include <set>
 #include <stdexcept>
 #include <tuple>
 
+#include "point_keypoint_distance.h"
 #include "vims_common/magnetic_signature.h"
-#include "vims_pose_graph/known_vertical_pose.h"
 
 namespace vims {
 
 namespace {
 constexpr const char* kComponent = "loop_closing";
-
-/// Descriptor indices of each point.
-std::vector<std::vector<uint32_t>> descriptorsByPoint(const DescribedPoints& points) {
-  std::vector<std::vector<uint32_t>> by_point(points.numPoints());
-  for (uint32_t d = 0; d < points.descriptors.size(); ++d) {
-    const uint32_t p = points.point_of_descriptor[d];
-    if (p < by_point.size()) by_point[p].push_back(d);
-  }
-  return by_point;
-}
-
-/// Distance of a described point to a keypoint: the best over the point's descriptors whose
-/// level the window admits for the keypoint's octave.
-inline int pointDistance(const DescribedPoints& points, const std::vector<uint32_t>& descriptor_ids,
-                         const BinaryDescriptor& other, int octave, const LevelWindow& levels) {
-  int best = 257;
-  for (uint32_t d : descriptor_ids) {
-    if (!levels.admits(points.level_of_descriptor[d], octave)) continue;
-    best = std::min(best, hammingDistance(points.descriptors[d], other));
-  }
-  return best;
-}
 
 /// One point's descriptors regrouped per keypoint octave: the ones pointDistance() compares with
 /// a keypoint of octave o, contiguous (ORB pyramids have 8 levels; octaves outside
@@ -288,16 +264,7 @@ std::vector<PointMatch> matchPointsToKeypoints(const DescribedPoints& points, co
     matches.push_back(PointMatch{p, keypoints.index[best], best_distance});
   }
   // One point per keypoint: keep the closest (ties: the lower point index, the order above).
-  std::vector<int> owner(num_keypoints, -1);  // index in `matches` of each keypoint's owner
-  for (size_t i = 0; i < matches.size(); ++i) {
-    int& o = owner[matches[i].keypoint];
-    if (o < 0 || matches[i].distance < matches[static_cast<size_t>(o)].distance) o = static_cast<int>(i);
-  }
-  std::vector<PointMatch> unique;
-  unique.reserve(matches.size());
-  for (size_t i = 0; i < matches.size(); ++i)
-    if (owner[matches[i].keypoint] == static_cast<int>(i)) unique.push_back(matches[i]);
-  return unique;
+  return closestMatchPerKeypoint(matches, num_keypoints);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -342,141 +309,67 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
   // The candidate's submap is in its own run's camera (a loaded map's rig may differ from this run's).
   const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
   const LevelWindow levels = levelWindow(query, map, candidate);
-  // The query's seabed corners only across a scale change (their interpolated depths are less
-  // exact than the VIO's landmarks; at about the same altitude the tracked points suffice).
+  // Relocalisation: a candidate the query's run is not joined to yet (a loaded map, another
+  // VIO session) gets the guided search and the query's seabed corners (guided_min_inliers).
+  const bool guided = options_.guided_min_inliers > 0 && options_.guided_min_inliers < options_.pnp_min_inliers &&
+                      query.node < map.numNodes() && !map.sameComponent(query.node, candidate);
+  // Otherwise the query's seabed corners only across a scale change (their interpolated depths
+  // are less exact than the VIO's landmarks; at about the same altitude the tracked points
+  // suffice).
   DescribedPoints with_seabed;
-  const bool use_seabed = !query.seabed_points.empty() && levels.tolerance >= 0.0 &&
-                          std::abs(levels.shift) >= options_.query_seabed_min_level_shift;
+  const bool use_seabed =
+      !query.seabed_points.empty() &&
+      (guided || (levels.tolerance >= 0.0 && std::abs(levels.shift) >= options_.query_seabed_min_level_shift));
   if (use_seabed) {
     with_seabed = query.points;
     mergeDescribedPoints(&with_seabed, query.seabed_points);
   }
   const DescribedPoints& points = use_seabed ? with_seabed : query.points;
-  const std::vector<PointMatch> matches = matchPointsToKeypoints(
+  std::vector<PointMatch> matches = matchPointsToKeypoints(
       points, sub, options_.match_ratio, options_.match_max_distance, options_.match_duplicate_radius_px, levels);
   r.num_matches = static_cast<int>(matches.size());
-  if (r.num_matches < options_.pnp_min_inliers) {
+  // A weaker consensus is a hypothesis for the guided search.
+  const int hypothesis_min_inliers = guided ? options_.guided_min_inliers : options_.pnp_min_inliers;
+  if (r.num_matches < hypothesis_min_inliers) {
     r.stage = LoopStage::kMatching;
     return r;
   }
-
-  // PnP on undistorted normalised coordinates (camera matrix = identity): the query's points in
-  // its VIO frame, the candidate's keypoints -> the candidate camera's pose in that frame.
-  std::vector<Eigen::Vector3d> points_3d;
-  std::vector<Eigen::Vector2d> normalized;
-  points_3d.reserve(matches.size());
-  normalized.reserve(matches.size());
-  for (const PointMatch& m : matches) {
-    points_3d.push_back(points.p_odom[m.point]);
-    normalized.push_back(sub.normalized[m.keypoint]);
-  }
-  const double focal = 0.5 * (camera_.fx + camera_.fy);
-  const double threshold = options_.pnp_reprojection_px / focal;
-  // Known-vertical test first: the candidate camera's tilt is known from its VIO attitude, so a
-  // 2-point RANSAC (yaw + position) rules out a consensus of pnp_min_inliers in ~1/w^2 samples,
-  // where the P3P RANSAC below needs ~1/w^4 (most candidates end at PnP). Its threshold is wider:
-  // it is only a necessary condition, and a VIO tilt error that P3P would absorb adds to the
-  // residuals here (docs/pose_graph.md, "Known-vertical consensus").
-  if (options_.pnp_vertical_check_threshold_scale > 0.0) {
-    const Eigen::Matrix3d A = (cand.pose.T_odom_b * T_bm_cm).linear();
-    const int samples = std::min(
-        options_.pnp_iterations,
-        ransacIterationsToReject(matches.size(), options_.pnp_min_inliers, options_.pnp_confidence, /*sample_size=*/2));
-    const KnownVerticalConsensus consensus =
-        knownVerticalConsensus(points_3d, normalized, A, options_.pnp_vertical_check_threshold_scale * threshold,
-                               samples, options_.pnp_min_inliers);
-    if (consensus.inliers < options_.pnp_min_inliers) {
-      r.num_inliers = consensus.inliers;
-      r.stage = LoopStage::kPnp;
-      return r;
-    }
-  }
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> image;
-  object.reserve(matches.size());
-  image.reserve(matches.size());
-  for (size_t i = 0; i < matches.size(); ++i) {
-    object.emplace_back(points_3d[i].x(), points_3d[i].y(), points_3d[i].z());
-    image.emplace_back(normalized[i].x(), normalized[i].y());
-  }
-  const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
-  cv::Mat rvec, tvec;
-  std::vector<int> ransac_inliers;
-  bool ok = false;
-  try {
-    // AP3P hypotheses from 4-point samples (a clean sample is far likelier than EPnP's 5 at the
-    // 30-50 % inlier rates of a seabed revisit), EPnP on all inliers of the best one; OpenCV's
-    // RANSAC uses a fixed seed, so the result is deterministic.
-    // The cap: had pnp_min_inliers of the matches been inliers, a clean 4-point sample would have
-    // come with probability pnp_confidence (x3, see ransacIterationsToReject). Once an acceptable
-    // consensus is found, OpenCV's adaptive stop ends the search within that many anyway; the cap
-    // only shortens the search for consensus sets that are not there.
-    const int iterations = std::min(
-        options_.pnp_iterations,
-        ransacIterationsToReject(matches.size(), options_.pnp_min_inliers, options_.pnp_confidence, /*sample_size=*/4));
-    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, iterations,
-                            static_cast<float>(threshold), options_.pnp_confidence, ransac_inliers, cv::SOLVEPNP_AP3P);
-  } catch (const cv::Exception&) {
-    ok = false;  // degenerate configurations (all points collinear, ...) are a rejection, not a crash
-  }
-  r.num_inliers = static_cast<int>(ransac_inliers.size());
-  if (!ok || r.num_inliers < options_.pnp_min_inliers) {
+  std::optional<Eigen::Isometry3d> T_cm_odomq =
+      pnpPose(points, matches, sub, (cand.pose.T_odom_b * T_bm_cm).linear(), hypothesis_min_inliers, &r.num_inliers);
+  if (!T_cm_odomq) {
     r.stage = LoopStage::kPnp;
     return r;
   }
-  // Refine on the inliers (Levenberg-Marquardt on the reprojection error), then recount.
-  std::vector<cv::Point3d> object_in;
-  std::vector<cv::Point2d> image_in;
-  for (int i : ransac_inliers) {
-    object_in.push_back(object[static_cast<size_t>(i)]);
-    image_in.push_back(image[static_cast<size_t>(i)]);
-  }
-  try {
-    cv::solvePnPRefineLM(object_in, image_in, K, cv::noArray(), rvec, tvec,
-                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 1e-12));
-  } catch (const cv::Exception&) {
-    r.stage = LoopStage::kPnp;
-    return r;
-  }
-  cv::Mat R_cv;
-  cv::Rodrigues(rvec, R_cv);
-  Eigen::Matrix3d R_cm_odomq;
-  Eigen::Vector3d t_cm_odomq;
-  cv::cv2eigen(R_cv, R_cm_odomq);
-  cv::cv2eigen(tvec, t_cm_odomq);
-  if (!R_cm_odomq.allFinite() || !t_cm_odomq.allFinite()) {
-    r.stage = LoopStage::kPnp;
-    return r;
-  }
-  Eigen::Isometry3d T_cm_odomq = Eigen::Isometry3d::Identity();
-  T_cm_odomq.linear() = R_cm_odomq;
-  T_cm_odomq.translation() = t_cm_odomq;
   // Gravity: both VIO frames are gravity-aligned, so the candidate camera's "up" is known from
   // its own VIO attitude and, through the PnP pose, from the query's frame. Over a flat seabed
   // a tilt error and a lateral shift give nearly the same image motion; a PnP pose tilted
   // against the VIO is off in position by ~depth x tilt too.
-  if (options_.pnp_max_tilt_error_deg > 0.0) {
-    const Eigen::Vector3d up_pnp = R_cm_odomq * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d up_vio = (cand.pose.T_odom_b * T_bm_cm).linear().transpose() * Eigen::Vector3d::UnitZ();
-    r.tilt_error_deg = std::acos(std::clamp(up_pnp.dot(up_vio), -1.0, 1.0)) * 180.0 / M_PI;
-    if (r.tilt_error_deg > options_.pnp_max_tilt_error_deg) {
+  const Eigen::Vector3d up_vio = (cand.pose.T_odom_b * T_bm_cm).linear().transpose() * Eigen::Vector3d::UnitZ();
+  const auto tiltError = [&up_vio](const Eigen::Isometry3d& T_c_odom) {
+    const Eigen::Vector3d up_pnp = T_c_odom.linear() * Eigen::Vector3d::UnitZ();
+    return std::acos(std::clamp(up_pnp.dot(up_vio), -1.0, 1.0)) * 180.0 / M_PI;
+  };
+  if (options_.pnp_max_tilt_error_deg > 0.0) r.tilt_error_deg = tiltError(*T_cm_odomq);
+  const bool tilted = options_.pnp_max_tilt_error_deg > 0.0 && r.tilt_error_deg > options_.pnp_max_tilt_error_deg;
+  if (tilted || r.num_inliers < options_.pnp_min_inliers) {
+    if (!guided) {
       r.stage = LoopStage::kPnp;
       return r;
     }
+    T_cm_odomq = guidedPose(query, points, sub, cand, T_bm_cm, *T_cm_odomq, levels, &matches);
+    if (!T_cm_odomq) {
+      r.stage = LoopStage::kPnp;
+      return r;
+    }
+    r.tilt_error_deg = tiltError(*T_cm_odomq);
   }
-  r.inlier_matches.clear();
-  for (const PointMatch& m : matches) {
-    const Eigen::Vector3d p_c = T_cm_odomq * points.p_odom[m.point];
-    if (!(p_c.z() > 0.0)) continue;  // a point behind the camera is never an inlier
-    const Eigen::Vector2d e = p_c.head<2>() / p_c.z() - sub.normalized[m.keypoint];
-    if (e.norm() <= threshold) r.inlier_matches.emplace_back(m.point, m.keypoint);
-  }
+  r.inlier_matches = inliersUnder(points, matches, sub, *T_cm_odomq);
   r.num_inliers = static_cast<int>(r.inlier_matches.size());
   if (r.num_inliers < options_.pnp_min_inliers) {
     r.stage = LoopStage::kPnp;
     return r;
   }
-  const Eigen::Isometry3d T_bm_odomq = T_bm_cm * T_cm_odomq;
+  const Eigen::Isometry3d T_bm_odomq = T_bm_cm * *T_cm_odomq;
   r.T_match_query = T_bm_odomq * query.T_odom_b;
   r.has_pose = true;
   if (options_.pnp_known_vertical_refinement) {

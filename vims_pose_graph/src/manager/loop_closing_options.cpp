@@ -162,6 +162,8 @@ const OptionTable<LoopDetectorOptions>& LoopDetectorOptions::optionTable() {
           .flag("pnp_known_vertical_refinement", &O::pnp_known_vertical_refinement)
           .number("pnp_vertical_check_threshold_scale", &O::pnp_vertical_check_threshold_scale,
                   Bounds::closed(0.0, 100.0))
+          .integer("guided_min_inliers", &O::guided_min_inliers, Bounds::closed(0, 100000))
+          .number("guided_search_radius_px", &O::guided_search_radius_px, Bounds::closed(0.5, 200.0))
           .integer("covisibility_neighbours", &O::covisibility_neighbours, Bounds::closed(0, 100))
           .integer("covisibility_min_points", &O::covisibility_min_points, Bounds::closed(1, 100000))
           .number("covisibility_min_ratio", &O::covisibility_min_ratio, Bounds::closed(0.0, 1.0))
