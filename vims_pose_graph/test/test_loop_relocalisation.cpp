@@ -1,9 +1,12 @@
 /// Relocalisation: verification against a candidate the query's run is not joined to yet
 /// (LoopDetectorOptions::guided_min_inliers). A place flown the other way and to the side shares
 /// part of its view; the guided search turns a weak or tilted PnP consensus into a loop with the
-/// right pose, and never into a loop at another place.
+/// right pose, and never into a loop at another place. And tracking a joined map from the pose
+/// graph's prediction (track_map_candidates).
 
 #include <gtest/gtest.h>
+
+#include <tuple>
 
 #include "loop_test_world.h"
 #include "loop_verification_helpers.h"
@@ -33,8 +36,10 @@ struct RelocalisationScene {
   }
 
   /// A pass of four keyframes 0.3 m apart at `heading_deg` ending with its camera over
-  /// `camera_xy`, in an unrelated VIO frame; returns the last keyframe's query.
-  LoopQuery queryAt(const Eigen::Vector2d& camera_xy, double heading_deg, double t0) {
+  /// `camera_xy`, in an unrelated VIO frame; returns the last keyframe's query. The keyframes'
+  /// world positions in the map are the truth plus `world_error` (the graph's estimate).
+  LoopQuery queryAt(const Eigen::Vector2d& camera_xy, double heading_deg, double t0,
+                    const Eigen::Vector3d& world_error = Eigen::Vector3d::Zero()) {
     const Eigen::Isometry3d T_odom_w = yawTransform(-70.0, Eigen::Vector3d(12.0, -4.0, 0.3));
     LoopQuery q;
     for (int j = 3; j >= 0; --j) {
@@ -43,7 +48,8 @@ struct RelocalisationScene {
       const KeyframeData kf = world.trackerKeyframe(t0 - j, 1, T_w_b, T_odom_w * T_w_b, 300 + static_cast<uint32_t>(j));
       const KeyframeDescription d = describer.describeKeyframeAndSeabed(
           kf.image, kf.features, kf.T_odom_b * world.camera().T_b_c, map.vocabulary().get());
-      const PoseGraphNodeId n = map.addNode(kf.t, query_session, kf.T_odom_b, T_w_b.translation(), 0.0, d.submap, true);
+      const PoseGraphNodeId n = map.addNode(kf.t, query_session, kf.T_odom_b, T_w_b.translation() + world_error,
+                                            yawPitchRollFromRotation(T_w_b.linear()).yaw, d.submap, true);
       mergeDescribedPoints(&q.points, d.points);
       if (j > 0) continue;
       q.node = n;
@@ -116,6 +122,38 @@ TEST(Relocalisation, GuidedMatchingAcceptsNoOtherPlace) {
     }
   }
   EXPECT_GE(guided, 7) << "too few wrong places reach the guided search for the test to show it";
+}
+
+// Tracking a joined map (LoopDetectorOptions::track_map_candidates): the same reversed pass
+// beside the map, which the plain checks reject within the component, is found from the pose
+// graph's prediction of where the map keyframe sees the query's points; a prediction 1 m off
+// finds nothing, and across components there is no prediction.
+TEST(MapTracking, APredictedPoseFindsTheMapWhereAppearanceDoesNot) {
+  const LoopDetectorOptions o = testLoopOptions();
+  ASSERT_GT(o.track_map_candidates, 0);
+  const PoseGraphNodeId match = 3;
+  const auto verifyJoined = [&](const Eigen::Vector3d& world_error, bool join) {
+    RelocalisationScene scene(o);
+    const LoopQuery q = scene.queryAt(Eigen::Vector2d(1.2, 1.1), 180.0, 100.0, world_error);
+    const auto last_map_node = static_cast<PoseGraphNodeId>(scene.map_poses.size() - 1);
+    if (join) scene.map.addSessionLink(last_map_node, last_map_node + 1, 1.0, 0.3);
+    const LoopVerifier verifier(o, scene.world.camera());
+    const VerificationResult plain = verifier.verify(q, scene.map, match);
+    const VerificationResult predicted = verifier.verifyFromPrediction(q, scene.map, match);
+    return std::make_tuple(plain, predicted, scene.map_poses[match].inverse() * scene.T_w_query);
+  };
+  const auto [plain, predicted, T_match_query_gt] = verifyJoined(Eigen::Vector3d::Zero(), true);
+  EXPECT_NE(plain.stage, LoopStage::kAccepted);
+  ASSERT_EQ(predicted.stage, LoopStage::kAccepted)
+      << "matches " << predicted.num_matches << ", inliers " << predicted.num_inliers;
+  EXPECT_GE(predicted.num_inliers, o.pnp_min_inliers);
+  expectPoseNear(predicted.T_match_query, T_match_query_gt, 0.1, 2.0);
+
+  const auto [plain_off, predicted_off, unused] = verifyJoined(Eigen::Vector3d(1.0, 0.0, 0.0), true);
+  EXPECT_NE(predicted_off.stage, LoopStage::kAccepted) << predicted_off.num_inliers << " inliers";
+  const auto [plain_apart, predicted_apart, unused_apart] = verifyJoined(Eigen::Vector3d::Zero(), false);
+  EXPECT_EQ(predicted_apart.stage, LoopStage::kMatching);
+  EXPECT_EQ(predicted_apart.num_matches, 0);
 }
 
 }  // namespace

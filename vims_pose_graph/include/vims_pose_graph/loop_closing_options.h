@@ -257,6 +257,15 @@ struct LoopDetectorOptions {
   /// keyframe this far away still shares most of the view (1.51 h x 1.13 h of seabed at altitude h;
   /// at tank750's lowest 2.1 m, 3.2 x 2.4 m).
   double proximity_radius_m = 1.0;
+  /// Localising in a loaded map the run is joined to (map modes localisation and extend, after
+  /// relocalisation), also verify up to this many of the map's keyframes nearest the query's
+  /// position (within proximity_radius_m) from the pose graph's prediction of their relative
+  /// pose (LoopVerifier::verifyFromPrediction: matching near the predicted projections, the
+  /// pose levelled on those, then the usual inlier count and covisibility), as ORB-SLAM tracks
+  /// its local map. Reason: in murky water high over the seabed the images are too poor for the
+  /// bag of words (scores 0.01-0.02) and for the ratio test over the whole image (11-22 matches),
+  /// and without loops the repeat drifted 0.1 m in 100 s. 0 disables.
+  int track_map_candidates = 1;
 
   // --- PnP RANSAC
   /// Inlier threshold in the candidate image [px]. It must cover the error of the VIO's 3D

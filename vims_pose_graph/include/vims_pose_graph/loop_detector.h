@@ -56,8 +56,8 @@ struct LoopAttempt {
   double mag_distance = std::numeric_limits<double>::quiet_NaN();  ///< |s_q - s_i| [T]; NaN: no magnetic stage
   double bow_score = std::numeric_limits<double>::quiet_NaN();     ///< NaN: not scored
   LoopStage stage = LoopStage::kMagnetic;
-  /// The candidate came from the pose graph's estimate (LoopDetectorOptions::proximity_candidates),
-  /// not from the magnetic and BoW stages.
+  /// The candidate came from the pose graph's estimate (LoopDetectorOptions::proximity_candidates
+  /// or track_map_candidates), not from the magnetic and BoW stages.
   bool proximity = false;
   /// Standard deviations of the loop's 4-DoF relative pose (p_li_j [m], yaw_i_j [rad]) from its
   /// inliers (refineLoopMeasurement); NaN when PnP did not succeed, the refinement is off or the
@@ -79,6 +79,10 @@ struct LoopQuery {
   /// The query's magnetic signatures (ENU amplitude, tesla) by coil: per coil the valid one
   /// nearest its time, when one is (LoopDetectorOptions::query_signature_max_dt_s).
   std::map<int, Eigen::Vector3d> signatures_enu;
+  /// The run is localising in a loaded map it is joined to (PoseGraphManagerCore): the loaded
+  /// keyframes nearest the query's position are verified from the graph's prediction too
+  /// (LoopDetectorOptions::track_map_candidates).
+  bool track_loaded_map = false;
 };
 
 /// Result of geometric verification of one candidate.
@@ -168,6 +172,14 @@ class LoopVerifier {
   /// Verifies `query` against map keyframe `candidate` (which must have a visual submap).
   VerificationResult verify(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate) const;
 
+  /// Verifies `query` against `candidate` from the pose graph's prediction of their relative
+  /// pose (both must be in one component; else rejected at matching): guided matching from the
+  /// predicted pose (matchPointsByProjection), the pose levelled on those matches, then the
+  /// inlier count and covisibility as in verify(). For tracking a loaded map while localising
+  /// (LoopDetectorOptions::track_map_candidates), where appearance alone finds too few matches.
+  VerificationResult verifyFromPrediction(const LoopQuery& query, const MultiScaleMap& map,
+                                          PoseGraphNodeId candidate) const;
+
   const LoopDetectorOptions& options() const { return options_; }
   /// This run's camera extrinsic from now on: the VIO's online estimate (the calibration's until then).
   void setRunCameraExtrinsic(const Eigen::Isometry3d& T_b_c) { T_b_c_ = T_b_c; }
@@ -209,6 +221,12 @@ class LoopVerifier {
                                               const VisualSubmap& sub, const MapNode& cand,
                                               const Eigen::Isometry3d& T_bm_cm, const Eigen::Isometry3d& T_c_odom,
                                               const LevelWindow& levels, std::vector<PointMatch>* matches) const;
+  /// The last stages of a verification from the candidate camera's pose T_cm_odomq and the
+  /// matches it was found with: the inliers, their count against pnp_min_inliers, the loop's
+  /// pose and refinement, and the covisibility check; sets *result's stage.
+  void confirm(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate,
+               const DescribedPoints& points, const std::vector<PointMatch>& matches,
+               const Eigen::Isometry3d& T_cm_odomq, const LevelWindow& levels, VerificationResult* result) const;
   double pnpThreshold() const { return options_.pnp_reprojection_px / (0.5 * (camera_.fx + camera_.fy)); }
   /// Checks the match's neighbours; returns the number of confirming neighbours.
   int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
@@ -232,6 +250,8 @@ struct DetectionResult {
   std::vector<std::pair<PoseGraphNodeId, double>> bow_candidates;  ///< verified, in order (node, score)
   /// Verified after the BoW candidates (LoopDetectorOptions::proximity_candidates), nearest first.
   std::vector<PoseGraphNodeId> proximity_candidates;
+  /// Verified last, from the graph's prediction (LoopQuery::track_loaded_map), nearest first.
+  std::vector<PoseGraphNodeId> tracking_candidates;
 };
 
 /// A magnetic submap that passed the magnetic stage's test.
@@ -278,6 +298,10 @@ class HierarchicalLoopDetector {
   /// current world position, nearest first, except those in `exclude` (already verified).
   std::vector<PoseGraphNodeId> proximityCandidates(const LoopQuery& query, const MultiScaleMap& map,
                                                    const std::vector<PoseGraphNodeId>& exclude = {}) const;
+  /// The same for tracking a loaded map: up to track_map_candidates keyframes of loaded sessions
+  /// within proximity_radius_m of the query, nearest first, except those in `exclude`.
+  std::vector<PoseGraphNodeId> trackingCandidates(const LoopQuery& query, const MultiScaleMap& map,
+                                                  const std::vector<PoseGraphNodeId>& exclude) const;
 
   const LoopVerifier& verifier() const { return verifier_; }
   /// LoopVerifier::setRunCameraExtrinsic.
@@ -285,6 +309,11 @@ class HierarchicalLoopDetector {
   const ModeSettings& mode() const { return mode_; }
 
  private:
+  /// Up to `count` keyframes with a visual submap in the query's component, not recent, within
+  /// proximity_radius_m horizontally of the query, nearest first, for which `admit` holds.
+  std::vector<PoseGraphNodeId> nearestCandidates(const LoopQuery& query, const MultiScaleMap& map, int count,
+                                                 const std::function<bool(PoseGraphNodeId)>& admit) const;
+
   LoopDetectorOptions options_;
   MagneticSubmapOptions magnetic_options_;
   ModeSettings mode_;

@@ -363,13 +363,60 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     }
     r.tilt_error_deg = tiltError(*T_cm_odomq);
   }
-  r.inlier_matches = inliersUnder(points, matches, sub, *T_cm_odomq);
-  r.num_inliers = static_cast<int>(r.inlier_matches.size());
-  if (r.num_inliers < options_.pnp_min_inliers) {
+  confirm(query, map, candidate, points, matches, *T_cm_odomq, levels, &r);
+  return r;
+}
+
+VerificationResult LoopVerifier::verifyFromPrediction(const LoopQuery& query, const MultiScaleMap& map,
+                                                      PoseGraphNodeId candidate) const {
+  VerificationResult r;
+  if (query.node >= map.numNodes() || !map.sameComponent(query.node, candidate)) {
+    r.stage = LoopStage::kMatching;  // no prediction across components
+    return r;
+  }
+  const MapNode& cand = map.node(candidate);
+  const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(candidate);
+  const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
+  const LevelWindow levels = levelWindow(query, map, candidate);
+  DescribedPoints points = query.points;
+  mergeDescribedPoints(&points, query.seabed_points);
+  // The graph's prediction: the candidate camera from the query's VIO frame through the world.
+  const Eigen::Isometry3d T_cm_odomq_predicted = (cand.pose.T_w_b() * T_bm_cm).inverse() * map.T_map_odom(query.node);
+  std::vector<PointMatch> matches = matchPointsByProjection(
+      points, *submap, camera_model_, T_cm_odomq_predicted, options_.guided_search_radius_px, options_.match_ratio,
+      options_.match_max_distance, options_.match_duplicate_radius_px, levels);
+  r.num_matches = static_cast<int>(matches.size());
+  if (r.num_matches < options_.pnp_min_inliers) {
+    r.stage = LoopStage::kMatching;
+    return r;
+  }
+  std::optional<Eigen::Isometry3d> T_cm_odomq = T_cm_odomq_predicted;
+  for (int round = 0; round < 2 && T_cm_odomq; ++round)
+    T_cm_odomq = levelledPose(query, points, *submap, cand, T_bm_cm, *T_cm_odomq, matches);
+  if (!T_cm_odomq) {
     r.stage = LoopStage::kPnp;
     return r;
   }
-  const Eigen::Isometry3d T_bm_odomq = T_bm_cm * *T_cm_odomq;
+  confirm(query, map, candidate, points, matches, *T_cm_odomq, levels, &r);
+  return r;
+}
+
+void LoopVerifier::confirm(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate,
+                           const DescribedPoints& points, const std::vector<PointMatch>& matches,
+                           const Eigen::Isometry3d& T_cm_odomq, const LevelWindow& levels,
+                           VerificationResult* result) const {
+  VerificationResult& r = *result;
+  const MapNode& cand = map.node(candidate);
+  const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(candidate);
+  const VisualSubmap& sub = *submap;
+  const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
+  r.inlier_matches = inliersUnder(points, matches, sub, T_cm_odomq);
+  r.num_inliers = static_cast<int>(r.inlier_matches.size());
+  if (r.num_inliers < options_.pnp_min_inliers) {
+    r.stage = LoopStage::kPnp;
+    return;
+  }
+  const Eigen::Isometry3d T_bm_odomq = T_bm_cm * T_cm_odomq;
   r.T_match_query = T_bm_odomq * query.T_odom_b;
   r.has_pose = true;
   if (options_.pnp_known_vertical_refinement) {
@@ -391,11 +438,10 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
         covisibleNeighbours(points, map, candidate, T_bm_odomq, r.inlier_matches, levels);
     if (r.covisibility_confirming_neighbours < options_.covisibility_min_neighbours) {
       r.stage = LoopStage::kCovisibility;
-      return r;
+      return;
     }
   }
   r.stage = LoopStage::kAccepted;
-  return r;
 }
 
 int LoopVerifier::covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,
@@ -507,17 +553,18 @@ bool isRecentKeyframe(const LoopDetectorOptions& options, const MultiScaleMap& m
   return t_query - c.pose.t < options.exclude_recent_s;
 }
 
-std::vector<PoseGraphNodeId> HierarchicalLoopDetector::proximityCandidates(
-    const LoopQuery& query, const MultiScaleMap& map, const std::vector<PoseGraphNodeId>& exclude) const {
+std::vector<PoseGraphNodeId> HierarchicalLoopDetector::nearestCandidates(
+    const LoopQuery& query, const MultiScaleMap& map, int count,
+    const std::function<bool(PoseGraphNodeId)>& admit) const {
   std::vector<PoseGraphNodeId> out;
-  if (options_.proximity_candidates <= 0 || query.node >= map.numNodes()) return out;
+  if (count <= 0 || query.node >= map.numNodes()) return out;
   const Eigen::Vector2d p_query = map.node(query.node).pose.p_w_b.head<2>();
   const double r2 = options_.proximity_radius_m * options_.proximity_radius_m;
   std::vector<std::pair<double, PoseGraphNodeId>> near;  // (squared horizontal distance, node)
   for (PoseGraphNodeId n = 0; n < map.numNodes(); ++n) {
     const MapNode& c = map.node(n);
     if (n == query.node || c.bow_image < 0 || isRecent(map, query.node, n) || !map.sameComponent(n, query.node) ||
-        std::find(exclude.begin(), exclude.end(), n) != exclude.end())
+        !admit(n))
       continue;
     const double d2 = (c.pose.p_w_b.head<2>() - p_query).squaredNorm();
     if (d2 <= r2) near.emplace_back(d2, n);
@@ -525,10 +572,24 @@ std::vector<PoseGraphNodeId> HierarchicalLoopDetector::proximityCandidates(
   std::sort(near.begin(), near.end());
   for (const auto& [d2, n] : near) {
     (void)d2;
-    if (out.size() >= static_cast<size_t>(options_.proximity_candidates)) break;
+    if (out.size() >= static_cast<size_t>(count)) break;
     out.push_back(n);
   }
   return out;
+}
+
+std::vector<PoseGraphNodeId> HierarchicalLoopDetector::proximityCandidates(
+    const LoopQuery& query, const MultiScaleMap& map, const std::vector<PoseGraphNodeId>& exclude) const {
+  return nearestCandidates(query, map, options_.proximity_candidates, [&exclude](PoseGraphNodeId n) {
+    return std::find(exclude.begin(), exclude.end(), n) == exclude.end();
+  });
+}
+
+std::vector<PoseGraphNodeId> HierarchicalLoopDetector::trackingCandidates(
+    const LoopQuery& query, const MultiScaleMap& map, const std::vector<PoseGraphNodeId>& exclude) const {
+  return nearestCandidates(query, map, options_.track_map_candidates, [&](PoseGraphNodeId n) {
+    return map.sessions()[map.node(n).session].loaded && std::find(exclude.begin(), exclude.end(), n) == exclude.end();
+  });
 }
 
 bool HierarchicalLoopDetector::isRecent(const MultiScaleMap& map, PoseGraphNodeId query,
@@ -643,9 +704,21 @@ DetectionResult HierarchicalLoopDetector::detect(const LoopQuery& query, const M
     }
   }
 
+  // Localising in a joined map, its keyframes nearest the query are verified from the graph's
+  // prediction too (track_map_candidates): where the images are too poor for appearance.
+  const size_t num_appearance_candidates = to_verify.size();
+  if (query.track_loaded_map && options_.track_map_candidates > 0) {
+    std::vector<PoseGraphNodeId> verified;
+    for (const auto& c : to_verify) verified.push_back(c.first);
+    res.tracking_candidates = trackingCandidates(query, map, verified);
+    for (const PoseGraphNodeId n : res.tracking_candidates)
+      to_verify.emplace_back(n, std::numeric_limits<double>::quiet_NaN());
+  }
+
   for (size_t i = 0; i < to_verify.size(); ++i) {
     const auto& [n, score] = to_verify[i];
-    const VerificationResult v = verifier_.verify(query, map, n);
+    const VerificationResult v =
+        i < num_appearance_candidates ? verifier_.verify(query, map, n) : verifier_.verifyFromPrediction(query, map, n);
     LoopAttempt a = attemptFor(n);
     a.bow_score = score;
     a.proximity = i >= num_bow_candidates;

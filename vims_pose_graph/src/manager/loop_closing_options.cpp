@@ -154,6 +154,7 @@ const OptionTable<LoopDetectorOptions>& LoopDetectorOptions::optionTable() {
           .number("match_predicted_level_tolerance", &O::match_predicted_level_tolerance, Bounds::closed(0.0, 64.0))
           .integer("proximity_candidates", &O::proximity_candidates, Bounds::closed(0, 1000))
           .number("proximity_radius_m", &O::proximity_radius_m, Bounds::closed(0.0, 1000.0))
+          .integer("track_map_candidates", &O::track_map_candidates, Bounds::closed(0, 1000))
           .number("pnp_reprojection_px", &O::pnp_reprojection_px, Bounds::closed(0.1, 100.0))
           .integer("pnp_iterations", &O::pnp_iterations, Bounds::closed(1, 100000))
           .number("pnp_confidence", &O::pnp_confidence, Bounds::closed(0.5, 0.999999))

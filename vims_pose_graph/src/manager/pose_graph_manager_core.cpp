@@ -469,6 +469,7 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
   }
   query.seabed_points = std::move(p.seabed_points);
   query.signatures_enu = std::move(signatures);
+  query.track_loaded_map = map_loaded_ && stats_.relocalised && map_mode_ != MapMode::kMapping;
   ++stats_.loop_queries;
   DetectionResult result = detector_.detect(query, map_);
   attempts_.insert(attempts_.end(), result.attempts.begin(), result.attempts.end());
