@@ -224,9 +224,19 @@ class LoopVerifier {
   /// The last stages of a verification from the candidate camera's pose T_cm_odomq and the
   /// matches it was found with: the inliers, their count against pnp_min_inliers, the loop's
   /// pose and refinement, and the covisibility check; sets *result's stage.
-  void confirm(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate,
+  /// `sub`: the candidate's submap, as the caller read it (a loaded map decodes it per call).
+  void confirm(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate, const VisualSubmap& sub,
                const DescribedPoints& points, const std::vector<PointMatch>& matches,
                const Eigen::Isometry3d& T_cm_odomq, const LevelWindow& levels, VerificationResult* result) const;
+  /// Guided matching (matchPointsByProjection) with the options' radius, ratio and distances.
+  std::vector<PointMatch> matchNear(const DescribedPoints& points, const VisualSubmap& sub,
+                                    const Eigen::Isometry3d& T_c_odom, const LevelWindow& levels) const;
+  /// levelledPose twice from T_c_odom on the same matches (nothing when a round fails).
+  std::optional<Eigen::Isometry3d> levelledOnMatches(const LoopQuery& query, const DescribedPoints& points,
+                                                     const VisualSubmap& sub, const MapNode& cand,
+                                                     const Eigen::Isometry3d& T_bm_cm,
+                                                     const Eigen::Isometry3d& T_c_odom,
+                                                     const std::vector<PointMatch>& matches) const;
   double pnpThreshold() const { return options_.pnp_reprojection_px / (0.5 * (camera_.fx + camera_.fy)); }
   /// Checks the match's neighbours; returns the number of confirming neighbours.
   int covisibleNeighbours(const DescribedPoints& points, const MultiScaleMap& map, PoseGraphNodeId match,

@@ -83,13 +83,27 @@ std::optional<Eigen::Isometry3d> LoopVerifier::guidedPose(const LoopQuery& query
   // trades tilt for position, and its 6-DoF pose can be several degrees and decimetres off.
   std::optional<Eigen::Isometry3d> pose = levelledPose(query, points, sub, cand, T_bm_cm, T_c_odom, *matches);
   if (!pose) return std::nullopt;
-  *matches =
-      matchPointsByProjection(points, sub, camera_model_, *pose, options_.guided_search_radius_px, options_.match_ratio,
-                              options_.match_max_distance, options_.match_duplicate_radius_px, levels);
+  *matches = matchNear(points, sub, *pose, levels);
+  return levelledOnMatches(query, points, sub, cand, T_bm_cm, *pose, *matches);
+}
+
+std::vector<PointMatch> LoopVerifier::matchNear(const DescribedPoints& points, const VisualSubmap& sub,
+                                                const Eigen::Isometry3d& T_c_odom, const LevelWindow& levels) const {
+  return matchPointsByProjection(points, sub, camera_model_, T_c_odom, options_.guided_search_radius_px,
+                                 options_.match_ratio, options_.match_max_distance, options_.match_duplicate_radius_px,
+                                 levels);
+}
+
+std::optional<Eigen::Isometry3d> LoopVerifier::levelledOnMatches(const LoopQuery& query, const DescribedPoints& points,
+                                                                 const VisualSubmap& sub, const MapNode& cand,
+                                                                 const Eigen::Isometry3d& T_bm_cm,
+                                                                 const Eigen::Isometry3d& T_c_odom,
+                                                                 const std::vector<PointMatch>& matches) const {
   // Twice: the search radius is wider than the inlier threshold, and the pose fitted on the
   // first inliers explains the matches near the image's edge better.
+  std::optional<Eigen::Isometry3d> pose = T_c_odom;
   for (int round = 0; round < 2 && pose; ++round)
-    pose = levelledPose(query, points, sub, cand, T_bm_cm, *pose, *matches);
+    pose = levelledPose(query, points, sub, cand, T_bm_cm, *pose, matches);
   return pose;
 }
 

@@ -363,7 +363,7 @@ VerificationResult LoopVerifier::verify(const LoopQuery& query, const MultiScale
     }
     r.tilt_error_deg = tiltError(*T_cm_odomq);
   }
-  confirm(query, map, candidate, points, matches, *T_cm_odomq, levels, &r);
+  confirm(query, map, candidate, sub, points, matches, *T_cm_odomq, levels, &r);
   return r;
 }
 
@@ -382,33 +382,28 @@ VerificationResult LoopVerifier::verifyFromPrediction(const LoopQuery& query, co
   mergeDescribedPoints(&points, query.seabed_points);
   // The graph's prediction: the candidate camera from the query's VIO frame through the world.
   const Eigen::Isometry3d T_cm_odomq_predicted = (cand.pose.T_w_b() * T_bm_cm).inverse() * map.T_map_odom(query.node);
-  std::vector<PointMatch> matches = matchPointsByProjection(
-      points, *submap, camera_model_, T_cm_odomq_predicted, options_.guided_search_radius_px, options_.match_ratio,
-      options_.match_max_distance, options_.match_duplicate_radius_px, levels);
+  const std::vector<PointMatch> matches = matchNear(points, *submap, T_cm_odomq_predicted, levels);
   r.num_matches = static_cast<int>(matches.size());
   if (r.num_matches < options_.pnp_min_inliers) {
     r.stage = LoopStage::kMatching;
     return r;
   }
-  std::optional<Eigen::Isometry3d> T_cm_odomq = T_cm_odomq_predicted;
-  for (int round = 0; round < 2 && T_cm_odomq; ++round)
-    T_cm_odomq = levelledPose(query, points, *submap, cand, T_bm_cm, *T_cm_odomq, matches);
+  const std::optional<Eigen::Isometry3d> T_cm_odomq =
+      levelledOnMatches(query, points, *submap, cand, T_bm_cm, T_cm_odomq_predicted, matches);
   if (!T_cm_odomq) {
     r.stage = LoopStage::kPnp;
     return r;
   }
-  confirm(query, map, candidate, points, matches, *T_cm_odomq, levels, &r);
+  confirm(query, map, candidate, *submap, points, matches, *T_cm_odomq, levels, &r);
   return r;
 }
 
 void LoopVerifier::confirm(const LoopQuery& query, const MultiScaleMap& map, PoseGraphNodeId candidate,
-                           const DescribedPoints& points, const std::vector<PointMatch>& matches,
-                           const Eigen::Isometry3d& T_cm_odomq, const LevelWindow& levels,
-                           VerificationResult* result) const {
+                           const VisualSubmap& sub, const DescribedPoints& points,
+                           const std::vector<PointMatch>& matches, const Eigen::Isometry3d& T_cm_odomq,
+                           const LevelWindow& levels, VerificationResult* result) const {
   VerificationResult& r = *result;
   const MapNode& cand = map.node(candidate);
-  const std::shared_ptr<const VisualSubmap> submap = map.visualSubmap(candidate);
-  const VisualSubmap& sub = *submap;
   const Eigen::Isometry3d& T_bm_cm = extrinsicOf(map, candidate);
   r.inlier_matches = inliersUnder(points, matches, sub, T_cm_odomq);
   r.num_inliers = static_cast<int>(r.inlier_matches.size());
