@@ -23,6 +23,20 @@ void SeabedRelief::addHistory(const SeabedSample& sample) {
   while (history_.size() > history_hits_) history_.pop_front();
 }
 
+std::optional<std::pair<std::size_t, double>> SeabedRelief::nearestKeptHit(const Eigen::Vector2d& xy,
+                                                                           double within) const {
+  std::optional<std::pair<std::size_t, double>> nearest;
+  double best = within;
+  for (std::size_t k = 0; k < history_.size(); ++k) {
+    const double d = (history_[k].xy - xy).norm();
+    if (d < best) {
+      best = d;
+      nearest = std::make_pair(k, d);
+    }
+  }
+  return nearest;
+}
+
 double misfitFromPairs(const std::vector<double>& residuals, const std::vector<double>& distances, double sonar_sigma) {
   if (residuals.empty() || residuals.size() != distances.size()) return 0.0;
   std::vector<double> r2(residuals.size()), d2(distances.size()), scratch;

@@ -131,6 +131,16 @@ inline ceres::Solver::Options windowSolverOptions(const EstimatorOptions& option
   return solver_options;
 }
 
+/// A feature tied to a hit that left the window instead of its anchor's, being nearer to it
+/// (SonarDepthOptions::tie_to_nearest_hit): the plane through that hit (its height and the
+/// gradient it had, constants), the feature's horizontal distance from it, and the number of
+/// features tied to the same hit (they share its deviation from the plane, as an anchor's do).
+struct HitTie {
+  SeabedPlane plane;
+  double distance = 0.0;
+  int sharing = 1;
+};
+
 /// How features are tied to the seabed: the sonar depth factor where the anchor keyframe has a
 /// range, else (outage) a seabed height factor at the last measured height, if any.
 struct SeabedTies {
@@ -148,6 +158,8 @@ struct SeabedTies {
   /// The seabed's relief learnt from the sonar's hits (seabed_relief.h), nullopt until learnt or
   /// without learn_misfit: SonarDepthOptions::misfitPerM turns it into the factors' growth.
   std::optional<double> relief_per_m;
+  /// Features tied to a hit that left the window instead of their anchor's (HitTie).
+  std::map<std::uint64_t, HitTie> history_ties;
 };
 
 /// Whether `feature` would be tied to the carried seabed (its anchor has no range, a fix exists
@@ -189,6 +201,22 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
   if (out->size() == first) return;  // observed in the anchor only: no constraint
   if (!seabed.use_sonar || !feature.sonar_ok) return;
   const SonarDepthOptions& options = *seabed.options;
+  if (const auto tie = seabed.history_ties.find(feature.id); tie != seabed.history_ties.end()) {
+    const HitTie& hit = tie->second;
+    const double sigma = SonarDepthOptions::sigmaAt(seabed.sonar_sigma, hit.distance,
+                                                    options.misfitPerM(seabed.relief_per_m, hit.sharing));
+    if (apply_gate &&
+        !seabedHeightGate(anchor, hit.plane, T_l_bi, T_bc, feature.lambda[0], td[0], sigma, options).consistent)
+      feature.sonar_ok = false;
+    if (feature.sonar_ok) {
+      ResidualSpec spec;
+      spec.cost = new SeabedHeightFactor(anchor, hit.plane, sigma);
+      spec.sonar = true;
+      spec.blocks = {a->pose, T_b_c, feature.lambda, td};
+      out->push_back(spec);
+    }
+    return;
+  }
   if (a->sonar_range) {
     const double distance =
         sonarHitDistance(anchor, *a->sonar_range, seabed.T_b_s, T_l_bi, T_bc, feature.lambda[0], td[0]);

@@ -28,6 +28,16 @@ namespace {
 
 constexpr const char* kComponent = "vio";
 
+/// The anchor observation of a feature the sonar ties to the seabed (depth set, not gated out,
+/// its anchor has a range), else nullptr.
+template <class FeatureT>
+const FeatureObservation* sonarTiedObservation(const FeatureT& feature) {
+  const auto* a = feature.anchor;
+  if (!feature.has_depth || !feature.sonar_ok || !(feature.lambda[0] > 0.0) || !a->sonar_range) return nullptr;
+  const auto obs = a->obs.find(feature.id);
+  return obs == a->obs.end() ? nullptr : &obs->second.fo;
+}
+
 }  // namespace
 
 void VioEstimator::optimize(VioFrameResult* result) {
@@ -211,29 +221,68 @@ SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
   seabed.carried = seabed_fix_ ? &*seabed_fix_ : nullptr;
   seabed.sloped = sloped;
   seabed.carried_features = carriedFeatureCount(seabed);
+  if (options_.use_sonar && options_.factors.sonar_depth.tie_to_nearest_hit) seabed.history_ties = historyTies(sloped);
   const bool learn = update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit;
-  const std::vector<double> distances = countSonarFeatures(learn);
+  const std::vector<double> distances = countSonarFeatures(learn, seabed.history_ties);
   if (learn) updateSeabedRelief(distances, sloped);
   if (relief_) seabed.relief_per_m = relief_->misfit_per_m;
   return seabed;
 }
 
-std::vector<double> VioEstimator::countSonarFeatures(bool with_distances) {
+std::vector<double> VioEstimator::countSonarFeatures(bool with_distances,
+                                                     const std::map<std::uint64_t, HitTie>& history_ties) {
   for (auto& frame : frames_) frame->sonar_features = 0;
   std::vector<double> distances;
   if (!options_.use_sonar) return distances;
   const Eigen::Isometry3d T_bc = poseBlockToIsometry(T_b_c_block_);
   for (const auto& [id, feature] : features_) {
+    const FeatureObservation* fo = sonarTiedObservation(feature);
+    if (!fo) continue;
     Frame* a = feature.anchor;
-    if (!feature.has_depth || !feature.sonar_ok || !(feature.lambda[0] > 0.0) || !a->sonar_range) continue;
-    const auto obs = a->obs.find(id);
-    if (obs == a->obs.end()) continue;
+    if (const auto tie = history_ties.find(id); tie != history_ties.end()) {
+      if (with_distances) distances.push_back(tie->second.distance);
+      continue;
+    }
     ++a->sonar_features;
     if (!with_distances) continue;
-    distances.push_back(sonarHitDistance(obs->second.fo, *a->sonar_range, sequence_.sonar.T_b_s, a->T_l_b(), T_bc,
-                                         feature.lambda[0], td_[0]));
+    distances.push_back(
+        sonarHitDistance(*fo, *a->sonar_range, sequence_.sonar.T_b_s, a->T_l_b(), T_bc, feature.lambda[0], td_[0]));
   }
   return distances;
+}
+
+std::map<std::uint64_t, HitTie> VioEstimator::historyTies(bool sloped) const {
+  std::map<std::uint64_t, HitTie> ties;
+  const SonarDepthOptions& o = options_.factors.sonar_depth;
+  if (seabed_relief_.historySize() == 0 || !relief_) return ties;
+  std::map<const Frame*, int> anchor_features;
+  for (const auto& [id, feature] : features_)
+    if (sonarTiedObservation(feature)) ++anchor_features[feature.anchor];
+  const Eigen::Isometry3d T_bc = poseBlockToIsometry(T_b_c_block_);
+  std::map<std::uint64_t, std::size_t> hit_of;
+  std::map<std::size_t, int> sharing;
+  for (const auto& [id, feature] : features_) {
+    const FeatureObservation* fo = sonarTiedObservation(feature);
+    if (!fo) continue;
+    const Frame* a = feature.anchor;
+    // Only where the relief sets the anchor's own factors' growth: below the floor the plane's
+    // own error does, which a kept hit shares and adds its stale pose to (docs/factors.md 5f).
+    if (o.misfitPerM(relief_->misfit_per_m, anchor_features[a]) <= o.misfit_per_m) continue;
+    const Eigen::Isometry3d T_l_ba = a->T_l_b();
+    const Eigen::Vector2d xy = featureInL(*fo, T_l_ba, T_bc, feature.lambda[0], td_[0]).head<2>();
+    const double own =
+        sonarHitDistance(*fo, *a->sonar_range, sequence_.sonar.T_b_s, T_l_ba, T_bc, feature.lambda[0], td_[0]);
+    const auto hit = seabed_relief_.nearestKeptHit(xy, own);
+    if (!hit) continue;
+    const SeabedSample& h = seabed_relief_.keptHit(hit->first);
+    HitTie& tie = ties[id];
+    tie.plane = SeabedPlane{h.height, h.xy, sloped ? h.slope : Eigen::Vector2d::Zero()};
+    tie.distance = hit->second;
+    hit_of[id] = hit->first;
+    ++sharing[hit->first];
+  }
+  for (auto& [id, tie] : ties) tie.sharing = sharing[hit_of[id]];
+  return ties;
 }
 
 std::optional<SeabedSample> VioEstimator::seabedSample(const Frame& f, bool sloped) const {

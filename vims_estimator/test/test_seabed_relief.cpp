@@ -110,5 +110,28 @@ TEST(SeabedRelief, GrowthOfTheFactorsSigma) {
   EXPECT_DOUBLE_EQ(options.misfitPerM(0.1, 7), options.misfit_per_m);
 }
 
+// The hit a feature is tied to with tie_to_nearest_hit: the nearest kept one, only if it is
+// nearer than the anchor's own hit (`within`).
+TEST(SeabedRelief, NearestKeptHitIsTheNearestWithinTheOwnHitsDistance) {
+  SeabedRelief relief(3);
+  EXPECT_FALSE(relief.nearestKeptHit(Eigen::Vector2d::Zero(), 10.0));
+  for (const double x : {0.0, 1.0, 2.0, 3.0}) {  // 4 hits into a history of 3: x = 0 is dropped
+    SeabedSample s;
+    s.xy = Eigen::Vector2d(x, 0.5);
+    s.height = -x;
+    relief.addHistory(s);
+  }
+  const auto hit = relief.nearestKeptHit(Eigen::Vector2d(0.1, 0.5), 5.0);
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(hit->first, 0u);  // x = 1, the oldest kept
+  EXPECT_NEAR(hit->second, 0.9, 1e-12);
+  EXPECT_DOUBLE_EQ(relief.keptHit(hit->first).height, -1.0);
+  EXPECT_FALSE(relief.nearestKeptHit(Eigen::Vector2d(0.1, 0.5), 0.9));  // the own hit is as near
+  const auto middle = relief.nearestKeptHit(Eigen::Vector2d(2.2, 0.4), 5.0);
+  ASSERT_TRUE(middle);
+  EXPECT_EQ(middle->first, 1u);
+  EXPECT_NEAR(middle->second, std::hypot(0.2, 0.1), 1e-12);
+}
+
 }  // namespace
 }  // namespace vims

@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 #include <deque>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace vims {
@@ -54,6 +55,11 @@ class SeabedRelief {
   /// A new session has a new frame l: the history means nothing there.
   void clear() { history_.clear(); }
   std::size_t historySize() const { return history_.size(); }
+  /// The kept hit horizontally nearest to `xy` if it is nearer than `within` [m] (the index into
+  /// the kept hits, oldest first, and its distance); what SonarDepthOptions::tie_to_nearest_hit
+  /// ties a feature to when it is nearer than the anchor's own hit.
+  std::optional<std::pair<std::size_t, double>> nearestKeptHit(const Eigen::Vector2d& xy, double within) const;
+  const SeabedSample& keptHit(std::size_t index) const { return history_.at(index); }
 
   /// m from the history and `window` (the window's hits at the current estimate); `sonar_sigma`
   /// is the factor's sonar sigma, `feature_distance_m` the median horizontal distance of the

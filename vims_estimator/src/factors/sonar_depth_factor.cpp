@@ -38,6 +38,7 @@ const OptionTable<SonarDepthOptions>& SonarDepthOptions::optionTable() {
           .flag("learn_misfit", &O::learn_misfit)
           .integer("misfit_history_hits", &O::misfit_history_hits, Bounds::positive())
           .integer("misfit_min_pairs", &O::misfit_min_pairs, Bounds::positive())
+          .flag("tie_to_nearest_hit", &O::tie_to_nearest_hit)
           .number("gate_chi2", &O::gate_chi2, Bounds::positive())
           .number("gate_max_height_difference", &O::gate_max_height_difference, Bounds::positive())
           .flag("carry_seabed_through_outages", &O::carry_seabed_through_outages)
@@ -119,6 +120,11 @@ double sonarDepthResidual(const FeatureObservation& anchor, double range, const 
     J->d_slope = -(T_l_bk.linear() * d_b).head<2>().transpose();
   }
   return r;
+}
+
+Eigen::Vector3d featureInL(const FeatureObservation& anchor, const Eigen::Isometry3d& T_l_bk,
+                           const Eigen::Isometry3d& T_b_c, double lambda, double td) {
+  return T_l_bk * featureInBody(anchor, T_b_c, lambda, td, Eigen::RowVector3d::UnitZ(), nullptr);
 }
 
 double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,

@@ -100,6 +100,15 @@ struct SonarDepthOptions {
   /// Pairs of hits at the features' distances needed before the learnt value replaces
   /// misfit_per_m (a median of fewer scatters by more than the relief).
   int misfit_min_pairs = 200;
+  /// On a seabed with relief, tie a feature to the sonar hit nearest to it horizontally: its
+  /// anchor's own, or one of the hits that left the window (the misfit_history_hits kept), held
+  /// at the height and gradient it had then (docs/factors.md 5f). The vehicle flies over much of
+  /// what its camera saw, so the seabed under a feature was often measured centimetres from it a
+  /// few seconds earlier, where the anchor's hit is a metre or more away. Only for features whose
+  /// own factor's growth the learnt relief sets (above misfit_per_m; needs learn_misfit): on a
+  /// seabed the sonar finds smooth a nearer hit gains nothing and costs its stale pose. false:
+  /// the anchor's hit only (the paper).
+  bool tie_to_nearest_hit = true;
   /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
   double gate_max_height_difference = 0.5;
@@ -166,6 +175,10 @@ double sonarDepthResidual(const FeatureObservation& anchor, double range, const 
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* jacobians = nullptr,
                           const Eigen::Vector2d& slope = Eigen::Vector2d::Zero());
+
+/// The feature's position f_l = T_l_bk T_b_c (lambda b) in frame l.
+Eigen::Vector3d featureInL(const FeatureObservation& anchor, const Eigen::Isometry3d& T_l_bk,
+                           const Eigen::Isometry3d& T_b_c, double lambda, double td);
 
 /// Horizontal distance D = |(f_l - s_l)_xy| between the feature and the beam's hit [m].
 double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
