@@ -17,6 +17,7 @@
 
 #include "vims_estimator/factors/reprojection_factor.h"
 #include "vims_estimator/factors/sonar_depth_factor.h"
+#include "vims_estimator/factors/window_hit_factor.h"
 #include "vims_estimator/state_blocks.h"
 #include "vims_estimator/vio_estimator.h"
 
@@ -131,11 +132,15 @@ inline ceres::Solver::Options windowSolverOptions(const EstimatorOptions& option
   return solver_options;
 }
 
-/// A feature tied to a hit that left the window instead of its anchor's, being nearer to it
-/// (SonarDepthOptions::tie_to_nearest_hit): the plane through that hit (its height and the
-/// gradient it had, constants), the feature's horizontal distance from it, and the number of
-/// features tied to the same hit (they share its deviation from the plane, as an anchor's do).
+/// A feature tied to a sonar hit nearer to it than its anchor's (SonarDepthOptions::
+/// tie_to_nearest_hit): either another window keyframe's live hit (`window_frame`, its index in
+/// the window: its pose, range and gradient are the window's, window_hit_factor.h), or one that
+/// left the window (no index: the plane through it, its height and the gradient it had, constants). `distance` is the
+/// feature's horizontal distance from it; `sharing` the number of features tied to the same kept
+/// hit (they share its deviation from the plane, as an anchor's do; a window keyframe's count is
+/// its Frame::sonar_features).
 struct HitTie {
+  std::optional<std::size_t> window_frame;
   SeabedPlane plane;
   double distance = 0.0;
   int sharing = 1;
@@ -158,8 +163,8 @@ struct SeabedTies {
   /// The seabed's relief learnt from the sonar's hits (seabed_relief.h), nullopt until learnt or
   /// without learn_misfit: SonarDepthOptions::misfitPerM turns it into the factors' growth.
   std::optional<double> relief_per_m;
-  /// Features tied to a hit that left the window instead of their anchor's (HitTie).
-  std::map<std::uint64_t, HitTie> history_ties;
+  /// Features tied to a hit nearer to them than their anchor's (HitTie).
+  std::map<std::uint64_t, HitTie> nearest_hit_ties;
 };
 
 /// Whether `feature` would be tied to the carried seabed (its anchor has no range, a fix exists
@@ -201,20 +206,40 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
   if (out->size() == first) return;  // observed in the anchor only: no constraint
   if (!seabed.use_sonar || !feature.sonar_ok) return;
   const SonarDepthOptions& options = *seabed.options;
-  if (const auto tie = seabed.history_ties.find(feature.id); tie != seabed.history_ties.end()) {
+  const auto tie = seabed.nearest_hit_ties.find(feature.id);
+  FrameT* j = nullptr;
+  std::optional<SeabedPlane> tie_plane;
+  double tie_sigma = 0.0;
+  if (tie != seabed.nearest_hit_ties.end()) {
     const HitTie& hit = tie->second;
-    const double sigma = SonarDepthOptions::sigmaAt(seabed.sonar_sigma, hit.distance,
-                                                    options.misfitPerM(seabed.relief_per_m, hit.sharing));
-    if (apply_gate &&
-        !seabedHeightGate(anchor, hit.plane, T_l_bi, T_bc, feature.lambda[0], td[0], sigma, options).consistent)
-      feature.sonar_ok = false;
-    if (feature.sonar_ok) {
-      ResidualSpec spec;
-      spec.cost = new SeabedHeightFactor(anchor, hit.plane, sigma);
-      spec.sonar = true;
+    j = hit.window_frame ? frames.at(*hit.window_frame).get() : nullptr;
+    tie_sigma = SonarDepthOptions::sigmaAt(
+        seabed.sonar_sigma, hit.distance, options.misfitPerM(seabed.relief_per_m, j ? j->sonar_features : hit.sharing));
+    const Eigen::Vector2d slope_j =
+        j && seabed.sloped ? Eigen::Vector2d(j->slope[0], j->slope[1]) : Eigen::Vector2d::Zero();
+    tie_plane = j ? windowHitPlane(*j->sonar_range, seabed.T_b_s, j->T_l_b(), slope_j) : hit.plane;
+    // A nearest hit the feature disagrees with (a rock under that beam or beside the feature) is
+    // not a verdict on the feature: it keeps its anchor's hit, whose own gate judges it. Checked
+    // in the solve and in marginalisation alike.
+    if (!seabedHeightGate(anchor, *tie_plane, T_l_bi, T_bc, feature.lambda[0], td[0], tie_sigma, options).consistent)
+      tie_plane.reset();
+  }
+  if (tie_plane) {
+    const double sigma = tie_sigma;
+    const SeabedPlane& plane = *tie_plane;
+    ResidualSpec spec;
+    spec.sonar = true;
+    if (j == nullptr) {
+      spec.cost = new SeabedHeightFactor(anchor, plane, sigma);
       spec.blocks = {a->pose, T_b_c, feature.lambda, td};
-      out->push_back(spec);
+    } else if (seabed.sloped) {
+      spec.cost = new SlopedWindowHitFactor(anchor, *j->sonar_range, seabed.T_b_s, sigma);
+      spec.blocks = {a->pose, j->pose, T_b_c, feature.lambda, td, j->slope};
+    } else {
+      spec.cost = new WindowHitFactor(anchor, *j->sonar_range, seabed.T_b_s, sigma);
+      spec.blocks = {a->pose, j->pose, T_b_c, feature.lambda, td};
     }
+    out->push_back(spec);
     return;
   }
   if (a->sonar_range) {

@@ -221,16 +221,17 @@ SeabedTies VioEstimator::seabedTies(bool sloped, bool update_relief) {
   seabed.carried = seabed_fix_ ? &*seabed_fix_ : nullptr;
   seabed.sloped = sloped;
   seabed.carried_features = carriedFeatureCount(seabed);
-  if (options_.use_sonar && options_.factors.sonar_depth.tie_to_nearest_hit) seabed.history_ties = historyTies(sloped);
+  if (options_.use_sonar && options_.factors.sonar_depth.tie_to_nearest_hit)
+    seabed.nearest_hit_ties = nearestHitTies(sloped);
   const bool learn = update_relief && options_.use_sonar && options_.factors.sonar_depth.learn_misfit;
-  const std::vector<double> distances = countSonarFeatures(learn, seabed.history_ties);
+  const std::vector<double> distances = countSonarFeatures(learn, seabed.nearest_hit_ties);
   if (learn) updateSeabedRelief(distances, sloped);
   if (relief_) seabed.relief_per_m = relief_->misfit_per_m;
   return seabed;
 }
 
 std::vector<double> VioEstimator::countSonarFeatures(bool with_distances,
-                                                     const std::map<std::uint64_t, HitTie>& history_ties) {
+                                                     const std::map<std::uint64_t, HitTie>& nearest_hit_ties) {
   for (auto& frame : frames_) frame->sonar_features = 0;
   std::vector<double> distances;
   if (!options_.use_sonar) return distances;
@@ -239,7 +240,8 @@ std::vector<double> VioEstimator::countSonarFeatures(bool with_distances,
     const FeatureObservation* fo = sonarTiedObservation(feature);
     if (!fo) continue;
     Frame* a = feature.anchor;
-    if (const auto tie = history_ties.find(id); tie != history_ties.end()) {
+    if (const auto tie = nearest_hit_ties.find(id); tie != nearest_hit_ties.end()) {
+      if (tie->second.window_frame) ++frames_.at(*tie->second.window_frame)->sonar_features;
       if (with_distances) distances.push_back(tie->second.distance);
       continue;
     }
@@ -251,37 +253,54 @@ std::vector<double> VioEstimator::countSonarFeatures(bool with_distances,
   return distances;
 }
 
-std::map<std::uint64_t, HitTie> VioEstimator::historyTies(bool sloped) const {
+std::map<std::uint64_t, HitTie> VioEstimator::nearestHitTies(bool sloped) const {
   std::map<std::uint64_t, HitTie> ties;
   const SonarDepthOptions& o = options_.factors.sonar_depth;
-  if (seabed_relief_.historySize() == 0 || !relief_) return ties;
   std::map<const Frame*, int> anchor_features;
   for (const auto& [id, feature] : features_)
     if (sonarTiedObservation(feature)) ++anchor_features[feature.anchor];
+  // The window's hits at the current estimate: they move with their keyframes' poses.
+  std::vector<std::pair<std::size_t, Eigen::Vector2d>> window_hits;
+  for (std::size_t i = 0; i < frames_.size(); ++i)
+    if (auto sample = seabedSample(*frames_[i], false)) window_hits.emplace_back(i, sample->xy);
   const Eigen::Isometry3d T_bc = poseBlockToIsometry(T_b_c_block_);
-  std::map<std::uint64_t, std::size_t> hit_of;
+  std::map<std::uint64_t, std::size_t> kept_hit_of;
   std::map<std::size_t, int> sharing;
   for (const auto& [id, feature] : features_) {
     const FeatureObservation* fo = sonarTiedObservation(feature);
     if (!fo) continue;
     const Frame* a = feature.anchor;
-    // Only where the relief sets the anchor's own factors' growth: below the floor the plane's
-    // own error does, which a kept hit shares and adds its stale pose to (docs/factors.md 5f).
-    if (o.misfitPerM(relief_->misfit_per_m, anchor_features[a]) <= o.misfit_per_m) continue;
+    // A window keyframe's hit is a state like the anchor's: always a candidate. A kept hit only
+    // where the relief sets the anchor's own factors' growth: below the floor the plane's own
+    // error does, which a kept hit shares and adds its stale pose to (docs/factors.md 5f).
+    const bool relief_sets = relief_ && o.misfitPerM(relief_->misfit_per_m, anchor_features[a]) > o.misfit_per_m;
     const Eigen::Isometry3d T_l_ba = a->T_l_b();
     const Eigen::Vector2d xy = featureInL(*fo, T_l_ba, T_bc, feature.lambda[0], td_[0]).head<2>();
-    const double own =
+    double nearest =
         sonarHitDistance(*fo, *a->sonar_range, sequence_.sonar.T_b_s, T_l_ba, T_bc, feature.lambda[0], td_[0]);
-    const auto hit = seabed_relief_.nearestKeptHit(xy, own);
-    if (!hit) continue;
-    const SeabedSample& h = seabed_relief_.keptHit(hit->first);
-    HitTie& tie = ties[id];
-    tie.plane = SeabedPlane{h.height, h.xy, sloped ? h.slope : Eigen::Vector2d::Zero()};
-    tie.distance = hit->second;
-    hit_of[id] = hit->first;
-    ++sharing[hit->first];
+    std::optional<std::size_t> nearest_frame;
+    for (const auto& [index, hit_xy] : window_hits) {
+      const double d = (xy - hit_xy).norm();
+      if (frames_[index].get() != a && d < nearest) {
+        nearest = d;
+        nearest_frame = index;
+      }
+    }
+    const auto kept = relief_sets ? seabed_relief_.nearestKeptHit(xy, nearest) : std::nullopt;
+    if (kept) {
+      const SeabedSample& h = seabed_relief_.keptHit(kept->first);
+      HitTie& tie = ties[id];
+      tie.plane = SeabedPlane{h.height, h.xy, sloped ? h.slope : Eigen::Vector2d::Zero()};
+      tie.distance = kept->second;
+      kept_hit_of[id] = kept->first;
+      ++sharing[kept->first];
+    } else if (nearest_frame) {
+      HitTie& tie = ties[id];
+      tie.window_frame = nearest_frame;
+      tie.distance = nearest;
+    }
   }
-  for (auto& [id, tie] : ties) tie.sharing = sharing[hit_of[id]];
+  for (auto& [id, hit] : kept_hit_of) ties[id].sharing = sharing[hit];
   return ties;
 }
 

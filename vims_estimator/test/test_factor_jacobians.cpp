@@ -14,6 +14,7 @@
 #include "vims_estimator/factors/relative_pose_factor.h"
 #include "vims_estimator/factors/reprojection_factor.h"
 #include "vims_estimator/factors/sonar_depth_factor.h"
+#include "vims_estimator/factors/window_hit_factor.h"
 
 namespace vims {
 namespace {
@@ -303,6 +304,54 @@ TEST(FactorJacobians, SeabedHeightFactorOnASlopedPlane) {
                 plane.slope.dot(step) / 0.3, 1e-9);
   }
   RecordProperty("worst_relative_error", test::sci(worst));
+}
+
+TEST(FactorJacobians, WindowHitFactor) {
+  double worst = 0.0;
+  for (unsigned seed : kSeeds) {
+    std::mt19937 rng(600 + seed);
+    const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
+    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
+    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
+    T_b_s.translation() = randomVector(rng, 0.3);
+    Eigen::Isometry3d T_l_ba = Eigen::Isometry3d::Identity();
+    T_l_ba.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_ba.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_l_bj = Eigen::Isometry3d::Identity();
+    T_l_bj.linear() = randomRotation(rng, 0.4).toRotationMatrix();
+    T_l_bj.translation() = T_l_ba.translation() + randomVector(rng, 1.5);
+    const FeatureObservation anchor = randomObservation(rng);
+    const double range = 3.0 + randomVector(rng, 1.0).x();
+    const Eigen::Vector2d slope = randomVector(rng, 0.15).head<2>();
+    const SlopedWindowHitFactor sloped(anchor, range, T_b_s, 0.07);
+    std::vector<std::vector<double>> params = {poseBlock(T_l_ba),
+                                               poseBlock(T_l_bj),
+                                               poseBlock(T_b_c),
+                                               {3.0 + randomVector(rng, 1.0).x()},
+                                               {randomVector(rng, 0.02).x()},
+                                               {slope.x(), slope.y()}};
+    worst = std::max(worst, test::checkJacobians(sloped, params, {kPose, kPose, kPose, kEuclid, kEuclid, kEuclid},
+                                                 kStep, kTol, "sloped window hit seed " + std::to_string(seed)));
+    const WindowHitFactor level(anchor, range, T_b_s, 0.07);
+    std::vector<std::vector<double>> five(params.begin(), params.begin() + 5);
+    worst = std::max(worst, test::checkJacobians(level, five, {kPose, kPose, kPose, kEuclid, kEuclid}, kStep, kTol,
+                                                 "window hit seed " + std::to_string(seed)));
+    // The anchor's own hit (j = a) is the sloped sonar depth factor.
+    std::vector<std::vector<double>> own = params;
+    own[1] = own[0];
+    const SlopedSonarDepthFactor sonar(anchor, range, T_b_s, 0.07);
+    const std::vector<std::vector<double>> sonar_params = {own[0], own[2], own[3], own[4], own[5]};
+    EXPECT_NEAR(test::evaluateResidual(sloped, own)(0), test::evaluateResidual(sonar, sonar_params)(0), 1e-9);
+    // Raising keyframe j by 0.2 m raises its hit, and the residual, by 0.2 m.
+    std::vector<std::vector<double>> raised = params;
+    raised[1][2] += 0.2;
+    EXPECT_NEAR(test::evaluateResidual(sloped, raised)(0) - test::evaluateResidual(sloped, params)(0), 0.2 / 0.07,
+                1e-9);
+  }
+  RecordProperty("worst_relative_error", test::sci(worst));
+  FeatureObservation anchor;
+  EXPECT_THROW(WindowHitFactor(anchor, 0.0, Eigen::Isometry3d::Identity(), 0.1), std::invalid_argument);
+  EXPECT_THROW(SlopedWindowHitFactor(anchor, 2.0, Eigen::Isometry3d::Identity(), 0.0), std::invalid_argument);
 }
 
 TEST(SonarDepth, SlopedPlaneExplainsASlopingSeabedThatTheHorizontalOneCannot) {

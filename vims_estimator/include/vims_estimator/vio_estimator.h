@@ -214,15 +214,16 @@ class VioEstimator {
   /// How this solve (update_relief: it also re-learns the relief first) or this
   /// marginalisation ties features to the seabed; counts each frame's sonar-tied features.
   vio_window::SeabedTies seabedTies(bool sloped, bool update_relief);
-  /// Sets each frame's sonar_features (the features tied to its own hit, not to a hit in
-  /// `history_ties`); with_distances: also returns the horizontal distances of all sonar-tied
-  /// features from their hits at the current estimate (only learning needs them).
+  /// Sets each frame's sonar_features (the features tied to its hit: anchored there and not in
+  /// `nearest_hit_ties`, or tied there by it); with_distances: also returns the horizontal
+  /// distances of all sonar-tied features from their hits at the current estimate (only
+  /// learning needs them).
   std::vector<double> countSonarFeatures(bool with_distances,
-                                         const std::map<std::uint64_t, vio_window::HitTie>& history_ties);
-  /// The features whose nearest hit is one that left the window rather than their anchor's, of
-  /// those whose own factor's growth the learnt relief sets (SonarDepthOptions::tie_to_nearest_hit),
-  /// at the current estimate.
-  std::map<std::uint64_t, vio_window::HitTie> historyTies(bool sloped) const;
+                                         const std::map<std::uint64_t, vio_window::HitTie>& nearest_hit_ties);
+  /// The features whose nearest hit is not their anchor's but another window keyframe's, or one
+  /// that left the window where the learnt relief sets their own factor's growth
+  /// (SonarDepthOptions::tie_to_nearest_hit), at the current estimate.
+  std::map<std::uint64_t, vio_window::HitTie> nearestHitTies(bool sloped) const;
   void updateSeabedRelief(const std::vector<double>& feature_distances, bool sloped);
   /// The seabed point frame f's sonar hit, at the current estimate (nullopt without a range).
   std::optional<SeabedSample> seabedSample(const Frame& f, bool sloped) const;

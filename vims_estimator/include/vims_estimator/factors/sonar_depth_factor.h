@@ -100,14 +100,17 @@ struct SonarDepthOptions {
   /// Pairs of hits at the features' distances needed before the learnt value replaces
   /// misfit_per_m (a median of fewer scatters by more than the relief).
   int misfit_min_pairs = 200;
-  /// On a seabed with relief, tie a feature to the sonar hit nearest to it horizontally: its
-  /// anchor's own, or one of the hits that left the window (the misfit_history_hits kept), held
-  /// at the height and gradient it had then (docs/factors.md 5f). The vehicle flies over much of
-  /// what its camera saw, so the seabed under a feature was often measured centimetres from it a
-  /// few seconds earlier, where the anchor's hit is a metre or more away. Only for features whose
-  /// own factor's growth the learnt relief sets (above misfit_per_m; needs learn_misfit): on a
-  /// seabed the sonar finds smooth a nearer hit gains nothing and costs its stale pose. false:
-  /// the anchor's hit only (the paper).
+  /// Tie a feature to the sonar hit nearest to it horizontally instead of its anchor's, where
+  /// that is nearer (docs/factors.md 5f, 5g). The vehicle flies over much of what its camera
+  /// sees, so the seabed under a feature is often measured centimetres from it a few seconds
+  /// before or after, where the anchor's hit is a metre or more away, and the nearer the hit the
+  /// less the seabed between them (relief, or a slope the model gets wrong) matters. Candidates:
+  /// the other window keyframes' hits (both poses states of the window, window_hit_factor.h),
+  /// and, where the learnt relief sets the feature's own factor's growth (above misfit_per_m;
+  /// needs learn_misfit), the misfit_history_hits kept hits, held at the height and gradient they
+  /// had when their keyframe left the window (on a seabed the sonar finds smooth a kept hit gains
+  /// nothing and costs its stale pose). A nearest hit the feature disagrees with (the gate) leaves
+  /// it on its anchor's. false: the anchor's hit only (the paper).
   bool tie_to_nearest_hit = true;
   /// [m] Hard gate on |r| independent of the noise model: a feature more than this above or below
   /// the sonar seabed is on a rock, a structure or a wall whatever sigma says.
