@@ -507,8 +507,7 @@ void VioEstimator::completeResult(VioStatus status, VioFrameResult* result) cons
     result->T_odom_b_at_stamp.linear() =
         (Eigen::Quaterniond(result->T_odom_b.linear()) * so3::exp(w * dt)).normalized().toRotationMatrix();
     result->seabed_slope = Eigen::Vector2d(f.slope[0], f.slope[1]);
-    if (f.sonar_range)
-      result->sonar_hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
+    if (f.sonar_range) result->sonar_hit = f.T_l_b() * sonarHitInBody(*f.sonar_range, sequence_.sonar.T_b_s);
     if (seabed_fix_) {
       const SeabedPlane plane{seabed_fix_->height, seabed_fix_->xy, seabed_fix_->slope};
       result->seabed_height = plane.heightAt(result->T_odom_b.translation().head<2>());

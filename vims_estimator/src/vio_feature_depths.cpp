@@ -94,7 +94,7 @@ bool VioEstimator::seabedDepth(const Feature& feature, double* lambda) const {
   SeabedPlane plane;
   const SonarDepthOptions& sonar_depth = options_.factors.sonar_depth;
   if (a.sonar_range) {
-    const Eigen::Vector3d hit = T_l_b * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *a.sonar_range));
+    const Eigen::Vector3d hit = T_l_b * sonarHitInBody(*a.sonar_range, sequence_.sonar.T_b_s);
     plane = SeabedPlane{hit.z(), hit.head<2>(), Eigen::Vector2d(a.slope[0], a.slope[1])};
   } else if (seabed_fix_ && sonar_depth.carry_seabed_through_outages &&
              (T_l_b.translation().head<2>() - seabed_fix_->xy).norm() <= sonar_depth.carry_max_distance_m) {

@@ -306,7 +306,7 @@ std::map<std::uint64_t, HitTie> VioEstimator::nearestHitTies(bool sloped) const 
 
 std::optional<SeabedSample> VioEstimator::seabedSample(const Frame& f, bool sloped) const {
   if (!f.sonar_range) return std::nullopt;
-  const Eigen::Vector3d hit = f.T_l_b() * (sequence_.sonar.T_b_s * Eigen::Vector3d(0.0, 0.0, *f.sonar_range));
+  const Eigen::Vector3d hit = f.T_l_b() * sonarHitInBody(*f.sonar_range, sequence_.sonar.T_b_s);
   SeabedSample sample;
   sample.xy = hit.head<2>();
   sample.height = hit.z();

@@ -57,11 +57,6 @@ namespace {
 /// The feature f_b = p_bc + lambda R_bc b in the body frame of its anchor, and the Jacobian
 /// columns of -n^T f_l = -n^T R_k f_b that the sonar depth and seabed height residuals share
 /// (extrinsic, lambda, td); `up_in_b` = n^T R_k (seabedNormalInBody; e_z^T R_k for a level seabed).
-/// The beam's seabed hit s_b = p_bs + d R_bs e_z in the body frame.
-Eigen::Vector3d hitInBody(double range, const Eigen::Isometry3d& T_b_s) {
-  return T_b_s.translation() + range * T_b_s.linear().col(2);
-}
-
 Eigen::Vector3d featureInBody(const FeatureObservation& anchor, const Eigen::Isometry3d& T_b_c, double lambda,
                               double td, const Eigen::RowVector3d& up_in_b, SonarDepthJacobians* J) {
   const Eigen::Matrix3d R_bc = T_b_c.linear();
@@ -100,6 +95,10 @@ SonarGateResult gate(double height_difference, double sigma, const SonarDepthOpt
 }
 }  // namespace
 
+Eigen::Vector3d sonarHitInBody(double range, const Eigen::Isometry3d& T_b_s) {
+  return T_b_s.translation() + range * T_b_s.linear().col(2);
+}
+
 Eigen::RowVector3d seabedNormalInBody(const Eigen::Vector2d& slope, const Eigen::Matrix3d& R_l_b) {
   // e_z^T R_k = third row of R_k: the body-frame direction whose component is height in l.
   if (slope.isZero(0.0)) return R_l_b.row(2);
@@ -110,7 +109,7 @@ double sonarDepthResidual(const FeatureObservation& anchor, double range, const 
                           const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td,
                           SonarDepthJacobians* J, const Eigen::Vector2d& slope) {
   const Eigen::RowVector3d n_in_b = seabedNormalInBody(slope, T_l_bk.linear());
-  const Eigen::Vector3d s_b = hitInBody(range, T_b_s);
+  const Eigen::Vector3d s_b = sonarHitInBody(range, T_b_s);
   const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, n_in_b, J);
   const Eigen::Vector3d d_b = s_b - f_b;
   const double r = n_in_b.dot(d_b);
@@ -130,7 +129,7 @@ Eigen::Vector3d featureInL(const FeatureObservation& anchor, const Eigen::Isomet
 double sonarHitDistance(const FeatureObservation& anchor, double range, const Eigen::Isometry3d& T_b_s,
                         const Eigen::Isometry3d& T_l_bk, const Eigen::Isometry3d& T_b_c, double lambda, double td) {
   const Eigen::Vector3d f_b = featureInBody(anchor, T_b_c, lambda, td, Eigen::RowVector3d::UnitZ(), nullptr);
-  return (T_l_bk.linear() * (f_b - hitInBody(range, T_b_s))).head<2>().norm();
+  return (T_l_bk.linear() * (f_b - sonarHitInBody(range, T_b_s))).head<2>().norm();
 }
 
 double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane& plane, const Eigen::Isometry3d& T_l_bk,
@@ -148,6 +147,7 @@ double seabedHeightResidual(const FeatureObservation& anchor, const SeabedPlane&
   if (J != nullptr) {
     J->d_pose.leftCols<3>() = Eigen::RowVector3d(plane.slope.x(), plane.slope.y(), -1.0);
     J->d_pose.rightCols<3>() = n_in_b * so3::skew(f_b);
+    J->d_slope = ((T_l_bk * f_b).head<2>() - plane.xy).transpose();
   }
   return r;
 }

@@ -7,16 +7,9 @@
 
 namespace vims {
 
-namespace {
-/// The beam's seabed hit s_b = p_bs + d R_bs e_z in the body frame.
-Eigen::Vector3d beamHitInBody(double range, const Eigen::Isometry3d& T_b_s) {
-  return T_b_s * Eigen::Vector3d(0.0, 0.0, range);
-}
-}  // namespace
-
 SeabedPlane windowHitPlane(double range, const Eigen::Isometry3d& T_b_s, const Eigen::Isometry3d& T_l_bj,
                            const Eigen::Vector2d& slope) {
-  const Eigen::Vector3d s_l = T_l_bj * beamHitInBody(range, T_b_s);
+  const Eigen::Vector3d s_l = T_l_bj * sonarHitInBody(range, T_b_s);
   return SeabedPlane{s_l.z(), s_l.head<2>(), slope};
 }
 
@@ -42,18 +35,16 @@ bool evaluateWindowHit(const SonarHitMeasurement& hit, double const* const* para
   const Eigen::RowVector3d n(-g.x(), -g.y(), 1.0);
   Eigen::Matrix<double, 1, 6> d_pose_j;
   d_pose_j.leftCols<3>() = n;
-  d_pose_j.rightCols<3>() = -n * T_l_bj.linear() * so3::skew(beamHitInBody(range, T_b_s));
+  d_pose_j.rightCols<3>() = -n * T_l_bj.linear() * so3::skew(sonarHitInBody(range, T_b_s));
   writePoseJacobian<1>(inv_sigma * J.d_pose, Eigen::Quaterniond(poseRotation(parameters[0])), jacobians[0]);
   writePoseJacobian<1>(inv_sigma * d_pose_j, Eigen::Quaterniond(poseRotation(parameters[1])), jacobians[1]);
   writePoseJacobian<1>(inv_sigma * J.d_extrinsic, Eigen::Quaterniond(poseRotation(parameters[2])), jacobians[2]);
   if (jacobians[3]) jacobians[3][0] = inv_sigma * J.d_lambda;
   if (jacobians[4]) jacobians[4][0] = inv_sigma * J.d_td;
   if (slope && jacobians[5]) {
-    const Eigen::Vector2d f_minus_s =
-        featureInL(anchor, T_l_ba, poseBlockToIsometry(parameters[2]), parameters[3][0], parameters[4][0]).head<2>() -
-        plane.xy;
-    jacobians[5][0] = inv_sigma * f_minus_s.x();
-    jacobians[5][1] = inv_sigma * f_minus_s.y();
+    // dr/dg_j = (f_l - s_l)_xy: the plane's gradient acts at keyframe j's hit.
+    jacobians[5][0] = inv_sigma * J.d_slope(0);
+    jacobians[5][1] = inv_sigma * J.d_slope(1);
   }
   return true;
 }

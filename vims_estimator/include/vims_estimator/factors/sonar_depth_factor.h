@@ -156,7 +156,7 @@ struct SonarDepthJacobians {
   Eigen::Matrix<double, 1, 6> d_extrinsic;
   double d_lambda = 0.0;
   double d_td = 0.0;
-  Eigen::Matrix<double, 1, 2> d_slope = Eigen::Matrix<double, 1, 2>::Zero();  ///< sonar depth only
+  Eigen::Matrix<double, 1, 2> d_slope = Eigen::Matrix<double, 1, 2>::Zero();  ///< w.r.t. the plane's gradient
 };
 
 /// A seabed plane in frame l known at one point: height `height` at horizontal position `xy`,
@@ -167,6 +167,9 @@ struct SeabedPlane {
   Eigen::Vector2d slope = Eigen::Vector2d::Zero();
   double heightAt(const Eigen::Vector2d& at) const { return height + slope.dot(at - xy); }
 };
+
+/// The beam's seabed hit s_b = p_bs + d R_bs e_z in the body frame, for slant range d [m].
+Eigen::Vector3d sonarHitInBody(double range, const Eigen::Isometry3d& T_b_s);
 
 /// The plane's normal n = (-g_x, -g_y, 1) as seen from the body: n^T R_l_b (exactly the third row
 /// of R_l_b for g = 0, so the horizontal model's numbers do not depend on this generalisation).
