@@ -79,6 +79,9 @@ VioEstimator::VioEstimator(const SequenceConfig& sequence, const EstimatorOption
     : sequence_(sequence),
       options_(options),
       logger_(std::move(logger)),
+      camera_(sequence.camera),
+      weigh_through_lens_(
+          weighsThroughLens(options.factors.reprojection.lens_weighting, sequence.camera.distortion_model)),
       seabed_relief_(static_cast<std::size_t>(options.factors.sonar_depth.misfit_history_hits)) {
   noise_ = ImuNoiseParams::fromCalibration(sequence_.imu);
   g_l_ = Eigen::Vector3d(0.0, 0.0, -sequence_.imu.gravity);
@@ -321,6 +324,7 @@ void VioEstimator::addObservations(Frame* frame, const TrackedFrame& tracked) {
     // taken from the tracker: see there.
     obs.fo.td_frame = frame->t_stamp - frame->t_state;
     obs.pixel = tf.pixel;
+    obs.pixel_from_uv = pixelFromNormalizedJacobian(camera_, tf.normalized, weigh_through_lens_);
     frame->obs[tf.id] = obs;
     auto it = features_.find(tf.id);
     if (it == features_.end()) {

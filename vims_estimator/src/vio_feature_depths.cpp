@@ -181,7 +181,9 @@ void VioEstimator::removeOutliers() {
       double z = 0.0;
       const Eigen::Vector2d r = reprojectionResidual(anchor, it->second.fo, T_l_bi, frame->T_l_b(), T_bc,
                                                      feature.lambda[0], td_[0], nullptr, &z);
-      if (z > kMinTargetDepth && focal_ * r.norm() <= options_.outlier_reprojection_px) continue;
+      // In pixels through the lens; with the pinhole's scaling, the mean focal length's.
+      const double error_px = weigh_through_lens_ ? (it->second.pixel_from_uv * r).norm() : focal_ * r.norm();
+      if (z > kMinTargetDepth && error_px <= options_.outlier_reprojection_px) continue;
       remove.push_back(id);
       break;
     }

@@ -68,6 +68,9 @@ struct VioEstimator::Frame {
   struct Obs {
     FeatureObservation fo;
     Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+    /// d pixel / d uv here (pixelFromNormalizedJacobian): the residual's whitening is this over the
+    /// pixel sigma, its error in pixels |pixel_from_uv r|.
+    Eigen::Matrix2d pixel_from_uv = Eigen::Matrix2d::Zero();
   };
   double t_stamp = 0.0;
   double t_state = 0.0;
@@ -181,8 +184,7 @@ bool tiedToCarriedSeabed(const FeatureT& feature, const SeabedTies& seabed) {
 /// Reprojection and sonar residual blocks of one feature at the current estimate.
 template <typename FrameT, typename FeatureT>
 void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT>>& frames, double* T_b_c, double* td,
-                      const Eigen::Matrix2d& sqrt_info, const SeabedTies& seabed, bool apply_gate,
-                      std::vector<ResidualSpec>* out) {
+                      double pixel_sigma, const SeabedTies& seabed, bool apply_gate, std::vector<ResidualSpec>* out) {
   if (!feature.has_depth || !(feature.lambda[0] > 0.0)) return;
   FrameT* a = feature.anchor;
   const auto anchor_it = a->obs.find(feature.id);
@@ -199,7 +201,7 @@ void featureResiduals(FeatureT& feature, const std::deque<std::unique_ptr<FrameT
     reprojectionResidual(anchor, it->second.fo, T_l_bi, frame->T_l_b(), T_bc, feature.lambda[0], td[0], nullptr, &z);
     if (!(z > kMinTargetDepth)) continue;
     ResidualSpec spec;
-    spec.cost = new ReprojectionFactor(anchor, it->second.fo, sqrt_info);
+    spec.cost = new ReprojectionFactor(anchor, it->second.fo, it->second.pixel_from_uv / pixel_sigma);
     spec.blocks = {a->pose, frame->pose, T_b_c, feature.lambda, td};
     out->push_back(spec);
   }

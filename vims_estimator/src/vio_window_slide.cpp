@@ -135,8 +135,6 @@ void VioEstimator::marginalizeOldest() {
           Eigen::Vector3d::Constant(1.0 / options_.init_gyro_bias_sigma);
       info.addResidualBlock(std::make_shared<SpeedBiasPriorFactor>(old->prior_sb, inv_sigma), nullptr, {old->sb});
     }
-    const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
-                                                                          options_.factors.reprojection.pixel_sigma);
     auto huber = std::make_shared<ceres::HuberLoss>(options_.reprojection_loss_scale);
     auto cauchy = std::make_shared<ceres::CauchyLoss>(options_.sonar_loss_scale);
     const SeabedTies seabed = seabedTies(sloped, false);
@@ -144,7 +142,8 @@ void VioEstimator::marginalizeOldest() {
     for (auto& [id, feature] : features_) {
       if (feature.anchor != old) continue;
       specs.clear();
-      featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, false, &specs);
+      featureResiduals(feature, frames_, T_b_c_block_, td_, options_.factors.reprojection.pixel_sigma, seabed, false,
+                       &specs);
       if (specs.empty()) continue;
       info.addParameterBlock(feature.lambda, 1, BlockManifold::kEuclidean);
       drop.push_back(feature.lambda);

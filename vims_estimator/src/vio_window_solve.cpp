@@ -112,8 +112,6 @@ void VioEstimator::optimize(VioFrameResult* result) {
   ceres::HuberLoss pressure_loss(options_.pressure.loss_scale);
   result->pressure_factors = addPressureFactors(&problem, &pressure_loss, false);
 
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
-                                                                        options_.factors.reprojection.pixel_sigma);
   int n_features = 0, n_sonar = 0;
   const SeabedTies seabed = seabedTies(sloped, true);
   std::vector<ResidualSpec> specs;
@@ -121,7 +119,8 @@ void VioEstimator::optimize(VioFrameResult* result) {
   for (auto& [id, feature] : features_) {
     specs.clear();
     const bool was_on_seabed = feature.sonar_ok;
-    featureResiduals(feature, frames_, T_b_c_block_, td_, sqrt_info, seabed, true, &specs);
+    featureResiduals(feature, frames_, T_b_c_block_, td_, options_.factors.reprojection.pixel_sigma, seabed, true,
+                     &specs);
     if (was_on_seabed && !feature.sonar_ok) ++n_gated;
     if (specs.empty()) continue;
     problem.AddParameterBlock(feature.lambda, 1);
@@ -182,8 +181,7 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
   problem.AddResidualBlock(new ImuFactor(newest->preintegration, g_l_), nullptr, prev->pose, prev->sb, newest->pose,
                            newest->sb);
 
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(sequence_.camera.fx, sequence_.camera.fy,
-                                                                        options_.factors.reprojection.pixel_sigma);
+  const double pixel_sigma = options_.factors.reprojection.pixel_sigma;
   const Eigen::Isometry3d T_bc = extrinsicCamera();
   const Eigen::Isometry3d T_l_bk = newest->T_l_b();
   int n_features = 0;
@@ -198,8 +196,8 @@ void VioEstimator::optimizeNewest(VioFrameResult* result) {
     if (!(z > kMinTargetDepth)) continue;
     add_constant(feature.anchor->pose, kPoseSize, &pose_manifold);
     add_constant(feature.lambda, 1, nullptr);
-    problem.AddResidualBlock(new ReprojectionFactor(anchor, it->second.fo, sqrt_info), &huber, feature.anchor->pose,
-                             newest->pose, T_b_c_block_, feature.lambda, td_);
+    problem.AddResidualBlock(new ReprojectionFactor(anchor, it->second.fo, it->second.pixel_from_uv / pixel_sigma),
+                             &huber, feature.anchor->pose, newest->pose, T_b_c_block_, feature.lambda, td_);
     ++n_features;
   }
   ceres::HuberLoss pressure_loss(options_.pressure.loss_scale);

@@ -27,6 +27,7 @@ class LossFunction;
 #include <string>
 #include <vector>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/keyframe_data.h"
 #include "vims_common/log.h"
 #include "vims_common/sensor_data.h"
@@ -198,6 +199,9 @@ class VioEstimator {
   ImuNoiseParams noise_;
   Eigen::Vector3d g_l_;
   double focal_ = 1.0;
+  /// The lens, for each observation's pixel-noise whitening (ReprojectionOptions::lens_weighting).
+  CameraModel camera_;
+  bool weigh_through_lens_ = false;
   double sonar_sigma_ = 0.05;
   /// The seabed height the sonar last measured, in this session's frame l, and where (x, y):
   /// carried through sonar outages (SonarDepthOptions::carry_seabed_through_outages).

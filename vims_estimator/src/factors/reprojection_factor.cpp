@@ -10,9 +10,25 @@
 
 namespace vims {
 
+std::string toString(LensWeighting weighting) {
+  switch (weighting) {
+    case LensWeighting::kOn:
+      return "on";
+    case LensWeighting::kOff:
+      return "off";
+    case LensWeighting::kAuto:
+      break;
+  }
+  return "auto";
+}
+
 const OptionTable<ReprojectionOptions>& ReprojectionOptions::optionTable() {
-  static const auto table =
-      OptionTable<ReprojectionOptions>().number("pixel_sigma", &ReprojectionOptions::pixel_sigma, Bounds::positive());
+  using O = ReprojectionOptions;
+  static const auto table = OptionTable<O>()
+                                .number("pixel_sigma", &O::pixel_sigma, Bounds::positive())
+                                .choice<LensWeighting>("lens_weighting", &O::lens_weighting,
+                                                       {LensWeighting::kAuto, LensWeighting::kOn, LensWeighting::kOff},
+                                                       [](LensWeighting w) { return toString(w); });
   return table;
 }
 
@@ -21,6 +37,19 @@ ReprojectionOptions ReprojectionOptions::fromReader(const ConfigReader& reader) 
 }
 
 std::string ReprojectionOptions::toYaml() const { return optionTable().toYaml(*this); }
+
+bool weighsThroughLens(LensWeighting weighting, DistortionModel model) {
+  if (weighting == LensWeighting::kAuto) return model == DistortionModel::kEquidistant;
+  return weighting == LensWeighting::kOn;
+}
+
+Eigen::Matrix2d pixelFromNormalizedJacobian(const CameraModel& camera, const Eigen::Vector2d& uv, bool through_lens) {
+  const Eigen::Matrix2d focal = Eigen::Vector2d(camera.fx(), camera.fy()).asDiagonal();
+  if (!through_lens) return focal;
+  Eigen::Matrix2d d_distorted_d_uv;
+  camera.distortNormalized(uv, &d_distorted_d_uv);
+  return focal * d_distorted_d_uv;
+}
 
 Eigen::Vector2d reprojectionResidual(const FeatureObservation& anchor, const FeatureObservation& target,
                                      const Eigen::Isometry3d& T_l_bi, const Eigen::Isometry3d& T_l_bk,

@@ -15,7 +15,10 @@
 ///   f_ck = R_bc^T (f_bk - p_bc) = (x, y, z)
 ///   r    = (x/z, y/z) - (uv_k + (td - td_k) vel_k)                       (2 residuals)
 ///
-/// whitened by diag(fx, fy) / sigma_px, i.e. in units of the pixel noise.
+/// whitened by W / sigma_px, W = d pixel / d uv at the target observation, i.e. in units of the
+/// pixel noise: W = diag(fx, fy) D(uv) through the lens (D = d distort / d uv; a fisheye's
+/// normalised plane stretches a pixel's error by 1/cos^2(theta) radially, 4.9x at 63 deg off
+/// axis), diag(fx, fy) for the pinhole's scaling (pixelFromNormalizedJacobian()).
 ///
 /// Tangent Jacobians (pose tangent [dp, dtheta] with q' = q Exp(dtheta)); with
 /// P = [1/z 0 -x/z^2; 0 1/z -y/z^2] and A = R_bc^T R_k^T:
@@ -32,6 +35,7 @@
 #include <Eigen/Geometry>
 #include <string>
 
+#include "vims_common/camera_model.h"
 #include "vims_common/config_reader.h"
 #include "vims_estimator/feature_observation.h"
 
@@ -40,19 +44,40 @@ namespace vims {
 template <typename Options>
 class OptionTable;
 
+/// How a pixel sigma becomes the weight of a residual on the normalised plane (file comment).
+enum class LensWeighting {
+  kAuto,  ///< through the lens for the equidistant (fisheye) model, the pinhole's scaling for radtan
+  kOn,    ///< through the lens for every model
+  kOff,   ///< diag(fx, fy) for every model
+};
+std::string toString(LensWeighting weighting);
+
 struct ReprojectionOptions {
-  /// [px] Standard deviation of a tracked, undistorted feature position: KLT tracks to ~0.5-1 px
-  /// and the radtan undistortion and motion blur of an AUV camera add about as much; VINS-Mono
-  /// uses the same 1.5 px.
+  /// [px] Standard deviation of a tracked feature position in the image: KLT tracks to ~0.5-1 px
+  /// and the motion blur of an AUV camera adds about as much; VINS-Mono uses the same 1.5 px.
   double pixel_sigma = 1.5;
+  /// Whether that sigma is mapped onto the normalised plane through the lens's Jacobian at each
+  /// observation. A fisheye (about 110 deg across) needs it: with diag(fx, fy) its edge features
+  /// weigh 5-25x too much and a 1.5 px error there reads as 7 px to the outlier check. A radtan
+  /// lens departs from its focal scaling by 10-25 % at the image corners; `auto` keeps the
+  /// focal scaling there (docs/benchmarks.md, "Fisheye weighting").
+  LensWeighting lens_weighting = LensWeighting::kAuto;
 
   /// The table of the fields (keys, bounds): drives fromReader, validation and toYaml.
   static const OptionTable<ReprojectionOptions>& optionTable();
 
-  /// Reads {pixel_sigma}; unknown keys and values <= 0 throw ConfigError naming the key.
+  /// Reads {pixel_sigma, lens_weighting}; unknown keys and bad values throw ConfigError naming the key.
   static ReprojectionOptions fromReader(const ConfigReader& reader);
   std::string toYaml() const;
 };
+
+/// True when `weighting` maps the pixel sigma through the lens of `model`.
+bool weighsThroughLens(LensWeighting weighting, DistortionModel model);
+
+/// W = d pixel / d uv at the undistorted normalised point `uv` (file comment): diag(fx, fy) times
+/// the distortion's Jacobian through the lens, diag(fx, fy) otherwise. An observation's residual
+/// is whitened by W / pixel_sigma, its error in pixels is |W r|.
+Eigen::Matrix2d pixelFromNormalizedJacobian(const CameraModel& camera, const Eigen::Vector2d& uv, bool through_lens);
 
 /// Tangent-space Jacobians of the unwhitened reprojection residual.
 struct ReprojectionJacobians {
@@ -85,7 +110,8 @@ class ReprojectionFactor : public ceres::SizedCostFunction<2, 7, 7, 7, 1, 1> {
   ReprojectionFactor(const FeatureObservation& anchor, const FeatureObservation& target,
                      const Eigen::Matrix2d& sqrt_information);
 
-  /// diag(fx, fy) / pixel_sigma: a pixel error e_px maps to e_px / f on the normalised plane.
+  /// diag(fx, fy) / pixel_sigma, the focal scaling of a lens without distortion (the estimator
+  /// weighs each observation by pixelFromNormalizedJacobian() / pixel_sigma).
   static Eigen::Matrix2d sqrtInformation(double fx, double fy, double pixel_sigma);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
