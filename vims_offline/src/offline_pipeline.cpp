@@ -19,6 +19,7 @@
 #include <mutex>
 #include <numeric>
 #include <optional>
+#include <sstream>
 
 #include "vims_common/config_reader.h"
 #include "vims_common/timing.h"
@@ -26,6 +27,22 @@
 namespace fs = std::filesystem;
 
 namespace vims {
+
+/// The format of `seabed.csv` (docs/offline_outputs.md): the VIO's body height, the seabed it
+/// estimates under the vehicle and the factors that tie them, 10 significant digits, NaN without
+/// a seabed estimate.
+struct SeabedCsv {
+  using Row = VioFrameResult;
+  static const char* header() { return "t,body_z,seabed_z,slope_x,slope_y,sonar_factors,pressure_factors"; }
+  static std::string row(const VioFrameResult& r) {
+    std::ostringstream row;
+    row << std::setprecision(10) << r.t_stamp << ',' << r.T_odom_b.translation().z() << ','
+        << (r.seabed_height ? *r.seabed_height : std::numeric_limits<double>::quiet_NaN()) << ',' << r.seabed_slope.x()
+        << ',' << r.seabed_slope.y() << ',' << r.sonar_factors << ',' << r.pressure_factors;
+    return row.str();
+  }
+};
+
 namespace {
 
 /// Progress on stderr: a rewriting line on a terminal, a line every 10 % otherwise (CI logs).
@@ -154,9 +171,7 @@ OfflinePipeline::OfflinePipeline(const OfflineOptions& options, LoggerPtr logger
   vio_ = std::make_unique<VioSystem>(sequence_, config_, logger_);
   tracker_worker_ = std::make_unique<TrackerWorker>(vio_.get(), options_.threads == 2);
   vio_tum_ = std::make_unique<TumWriter>((out / "vio.tum").string());
-  seabed_csv_ = std::make_unique<std::ofstream>((out / "seabed.csv").string());
-  if (!*seabed_csv_) throw std::runtime_error("cannot write " + (out / "seabed.csv").string());
-  *seabed_csv_ << "t,body_z,seabed_z,slope_x,slope_y,sonar_factors,pressure_factors\n" << std::setprecision(10);
+  seabed_csv_ = std::make_unique<CsvWriter<SeabedCsv>>((out / "seabed.csv").string());
   if (options_.vio_only) {
     if (!options_.map_load.empty() || !options_.map_save.empty())
       throw std::runtime_error("--vio-only runs no pose graph: it takes no map to load or save");
@@ -246,10 +261,7 @@ void OfflinePipeline::drainEstimator() {
   }
   for (const VioFrameResult& r : outputs.poses) {
     writeVioTumRow(vio_tum_.get(), r);
-    *seabed_csv_ << r.t_stamp << ',' << r.T_odom_b.translation().z() << ','
-                 << (r.seabed_height ? *r.seabed_height : std::numeric_limits<double>::quiet_NaN()) << ','
-                 << r.seabed_slope.x() << ',' << r.seabed_slope.y() << ',' << r.sonar_factors << ','
-                 << r.pressure_factors << '\n';
+    seabed_csv_->write(r);
     ++vio_frames_;
   }
   for (KeyframeData& keyframe : outputs.keyframes) {

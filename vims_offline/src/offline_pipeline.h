@@ -8,12 +8,12 @@
 /// single-threaded and driven only by bag data, is deterministic: two runs give identical files.
 
 #include <exception>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
 
 #include "serial_worker.h"
+#include "vims_common/csv_writer.h"
 #include "vims_common/heap.h"
 #include "vims_common/latency_histogram.h"
 #include "vims_common/log.h"
@@ -32,6 +32,8 @@
 #include "vims_system/vio_system.h"
 
 namespace vims {
+
+struct SeabedCsv;  // offline_pipeline.cpp
 
 struct OfflineOptions {
   std::string sequence_dir;
@@ -155,7 +157,7 @@ class OfflinePipeline {
   std::unique_ptr<TrackerWorker> tracker_worker_;  ///< runs vio_'s tracking, inline or on its thread
   std::unique_ptr<TumWriter> vio_tum_;
   /// seabed.csv: the estimated seabed under the vehicle at every VIO frame (docs/offline_outputs.md).
-  std::unique_ptr<std::ofstream> seabed_csv_;
+  std::unique_ptr<CsvWriter<SeabedCsv>> seabed_csv_;
   // Per-call latencies [ms] in fixed-size histograms: memory must not grow with the run's length.
   LatencyHistogram frontend_ms_;
   LatencyHistogram backend_ms_;

@@ -132,7 +132,7 @@ TEST(LoopClosingOptions, UnknownKeysAndBadValuesNameTheKey) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
-  EXPECT_STREQ(loopCsvHeader(),
+  EXPECT_STREQ(LoopCsv::header(),
                "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_"
                "z,sigma_yaw_deg,match_in_map");
   LoopAttempt a;
@@ -146,20 +146,20 @@ TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
   a.bow_score = 0.125;
   a.stage = LoopStage::kAccepted;
   a.sigma = Eigen::Vector4d(0.02, 0.03, 0.01, 0.5 * M_PI / 180.0);
-  const std::string row = formatLoopCsvRow(a);
+  const std::string row = LoopCsv::row(a);
   EXPECT_EQ(row.substr(0, 52), "1700000123.250000,1700000001.500000,1,0.500000,-1.25");
   EXPECT_NE(row.find(",41,2.500000e-08,0.125000,accepted"), std::string::npos) << row;
   EXPECT_NE(row.find("0.707106781"), std::string::npos) << row;
   EXPECT_NE(row.find("accepted,0.020000,0.030000,0.010000,0.500000,0"), std::string::npos) << row;
   LoopAttempt into_map = a;  // a loop into a loaded map says so in the last column
   into_map.match_in_map = true;
-  const std::string row_map = formatLoopCsvRow(into_map);
+  const std::string row_map = LoopCsv::row(into_map);
   EXPECT_EQ(row_map.substr(row_map.size() - 2), ",1");
 
   LoopAttempt b;  // rejected at BoW: no magnetic distance
   b.bow_score = 0.01;
   b.stage = LoopStage::kBow;
-  const std::string row_b = formatLoopCsvRow(b);
+  const std::string row_b = LoopCsv::row(b);
   EXPECT_NE(row_b.find(",0,,0.010000,bow,,,,"), std::string::npos) << row_b;  // no PnP: no sigmas
   EXPECT_EQ(std::count(row_b.begin(), row_b.end(), ','), 18);
 
@@ -172,7 +172,7 @@ TEST(LoopCsv, HeaderAndRowsInTheEvaluatorsFormat) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);
-  EXPECT_EQ(line, loopCsvHeader());
+  EXPECT_EQ(line, LoopCsv::header());
   std::getline(in, line);
   EXPECT_EQ(line, row);
   std::remove(path.c_str());

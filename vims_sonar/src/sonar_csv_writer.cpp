@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <stdexcept>
 
 namespace vims {
 namespace {
@@ -16,23 +15,12 @@ std::string number(double v, int decimals) {
 }
 }  // namespace
 
-const char* SonarCsvWriter::header() { return "t,raw_range,filtered_range,accepted,status"; }
+const char* SonarCsv::header() { return "t,raw_range,filtered_range,accepted,status"; }
 
-SonarCsvWriter::SonarCsvWriter(const std::string& path) : path_(path), out_(path) {
-  if (!out_) throw std::runtime_error("cannot write '" + path + "'");
-  out_ << header() << "\n";
-}
-
-void SonarCsvWriter::write(const SonarFilterResult& r) {
+std::string SonarCsv::row(const SonarFilterResult& r) {
   // 1 us stamps and 0.1 mm ranges are below every sensor's resolution.
-  out_ << number(r.t, 6) << ',' << number(r.raw, 4) << ',' << number(r.has_estimate ? r.filtered : NAN, 4) << ','
-       << (r.accepted ? 1 : 0) << ',' << sonarStatusName(r.status) << '\n';
-  if (!out_) throw std::runtime_error("failed while writing '" + path_ + "'");
-}
-
-void SonarCsvWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("failed while writing '" + path_ + "'");
+  return number(r.t, 6) + ',' + number(r.raw, 4) + ',' + number(r.has_estimate ? r.filtered : NAN, 4) + ',' +
+         (r.accepted ? '1' : '0') + ',' + sonarStatusName(r.status);
 }
 
 }  // namespace vims

@@ -6,26 +6,19 @@
 /// coil the coil's index in the sequence's list, invalid_reason the SignatureFlag names joined by '|' (empty when
 /// valid).
 
-#include <fstream>
 #include <string>
 
+#include "vims_common/csv_writer.h"
 #include "vims_magnetometer/signature_extractor.h"
 
 namespace vims {
 
-class SignatureCsvWriter {
- public:
-  /// Creates (truncates) the file and writes the header. Throws std::runtime_error if it cannot.
-  explicit SignatureCsvWriter(const std::string& path);
-  /// Appends one row. Throws std::runtime_error on an I/O error.
-  void write(const SignatureWindow& signature);
-  void flush();
-  const std::string& path() const { return path_; }
+/// The format of `mag_signatures.csv` (CsvWriter).
+struct SignatureCsv {
+  using Row = SignatureWindow;
   static const char* header();
-
- private:
-  std::string path_;
-  std::ofstream out_;
+  static std::string row(const SignatureWindow& signature);
 };
+using SignatureCsvWriter = CsvWriter<SignatureCsv>;
 
 }  // namespace vims

@@ -8,31 +8,19 @@
 /// levelled frame [m], yaw [deg]), empty before PnP succeeded; match_in_map is 1 when the match
 /// keyframe is of a loaded map (teach and repeat: t_match is then the teach run's time).
 
-#include <fstream>
 #include <string>
 
+#include "vims_common/csv_writer.h"
 #include "vims_pose_graph/loop_detector.h"
 
 namespace vims {
 
-/// The header row (no trailing newline).
-const char* loopCsvHeader();
-/// One row (no trailing newline).
-std::string formatLoopCsvRow(const LoopAttempt& attempt);
-
-class LoopCsvWriter {
- public:
-  /// Creates (truncates) the file and writes the header. Throws std::runtime_error if it cannot
-  /// be opened.
-  explicit LoopCsvWriter(const std::string& path);
-  /// Throws std::runtime_error on an I/O error.
-  void write(const LoopAttempt& attempt);
-  void flush();
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-  std::ofstream out_;
+/// The format of `loops.csv` (CsvWriter).
+struct LoopCsv {
+  using Row = LoopAttempt;
+  static const char* header();
+  static std::string row(const LoopAttempt& attempt);
 };
+using LoopCsvWriter = CsvWriter<LoopCsv>;
 
 }  // namespace vims

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <stdexcept>
 
 namespace vims {
 
@@ -16,12 +15,12 @@ std::string optional(double v, const char* format) {
 }
 }  // namespace
 
-const char* loopCsvHeader() {
+const char* LoopCsv::header() {
   return "t_query,t_match,accepted,x,y,z,qx,qy,qz,qw,inliers,mag_distance,bow_score,stage,sigma_x,sigma_y,sigma_z,"
          "sigma_yaw_deg,match_in_map";
 }
 
-std::string formatLoopCsvRow(const LoopAttempt& a) {
+std::string LoopCsv::row(const LoopAttempt& a) {
   Eigen::Quaterniond q(a.T_match_query.linear());
   q.normalize();
   const Eigen::Vector3d& p = a.T_match_query.translation();
@@ -34,17 +33,5 @@ std::string formatLoopCsvRow(const LoopAttempt& a) {
          optional(a.sigma[2], "%.6f") + "," + optional(a.sigma[3] * 180.0 / M_PI, "%.6f") + "," +
          (a.match_in_map ? "1" : "0");
 }
-
-LoopCsvWriter::LoopCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot open loop log '" + path + "' for writing");
-  out_ << loopCsvHeader() << "\n";
-}
-
-void LoopCsvWriter::write(const LoopAttempt& attempt) {
-  out_ << formatLoopCsvRow(attempt) << "\n";
-  if (!out_) throw std::runtime_error("I/O error writing loop log '" + path_ + "'");
-}
-
-void LoopCsvWriter::flush() { out_.flush(); }
 
 }  // namespace vims
