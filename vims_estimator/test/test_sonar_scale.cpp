@@ -124,7 +124,7 @@ Result solve(const Scene& s, double initial_scale, bool use_sonar) {
     problem.AddResidualBlock(new ImuFactor(s.preintegrations[k], s.traj.gravityWorld()), nullptr, poses[k].data(),
                              speed_bias[k].data(), poses[k + 1].data(), speed_bias[k + 1].data());
   }
-  const Eigen::Matrix2d sqrt_info = ReprojectionFactor::sqrtInformation(460.0, 460.0, 1.5);
+  const Eigen::Matrix2d sqrt_info = Eigen::Matrix2d::Identity() * (460.0 / 1.5);  // focal / pixel sigma
   for (size_t j = 0; j < s.anchors.size(); ++j) {
     for (int k = 1; k < 3; ++k) {
       problem.AddResidualBlock(new ReprojectionFactor(s.anchors[j], s.targets[j][k - 1], sqrt_info), nullptr,

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <sstream>
-#include <stdexcept>
 
 #include "vims_common/option_table.h"
 #include "vims_estimator/so3.h"
@@ -94,13 +93,6 @@ Eigen::Vector2d reprojectionResidual(const FeatureObservation& anchor, const Fea
 ReprojectionFactor::ReprojectionFactor(const FeatureObservation& anchor, const FeatureObservation& target,
                                        const Eigen::Matrix2d& sqrt_information)
     : anchor_(anchor), target_(target), sqrt_information_(sqrt_information) {}
-
-Eigen::Matrix2d ReprojectionFactor::sqrtInformation(double fx, double fy, double pixel_sigma) {
-  if (!(fx > 0.0 && fy > 0.0 && pixel_sigma > 0.0)) {
-    throw std::invalid_argument("ReprojectionFactor::sqrtInformation: fx, fy and pixel_sigma must be > 0");
-  }
-  return Eigen::Vector2d(fx / pixel_sigma, fy / pixel_sigma).asDiagonal();
-}
 
 bool ReprojectionFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const Eigen::Isometry3d T_l_bi = poseBlockToIsometry(parameters[0]);

@@ -106,13 +106,9 @@ class ReprojectionFactor : public ceres::SizedCostFunction<2, 7, 7, 7, 1, 1> {
   /// any camera's near limit).
   static constexpr double kMinDepth = 1e-6;
 
-  /// `sqrt_information` whitens the normalised-plane residual (see sqrtInformation()).
+  /// `sqrt_information` whitens the normalised-plane residual: pixelFromNormalizedJacobian() / pixel_sigma.
   ReprojectionFactor(const FeatureObservation& anchor, const FeatureObservation& target,
                      const Eigen::Matrix2d& sqrt_information);
-
-  /// diag(fx, fy) / pixel_sigma, the focal scaling of a lens without distortion (the estimator
-  /// weighs each observation by pixelFromNormalizedJacobian() / pixel_sigma).
-  static Eigen::Matrix2d sqrtInformation(double fx, double fy, double pixel_sigma);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
