@@ -8,6 +8,7 @@ over the seeds against the default rig's, and writes WORK/rig_sweep.md and .csv.
 
     bench/rig_sweep.py --work /work/data/rigs [--rigs default fisheye tilted_hd rotated low_rate]
                        [--seeds 3 4 5] [--scenario tank] [--duration 300] [--build _build] [--jobs 2]
+                       [--config C.yaml]
 
 Sequences and finished runs already in WORK are reused; delete WORK to start afresh after a code
 change. Figures: VIO and global translation ATE (SE3) in mm and % of the distance, global rotation
@@ -41,6 +42,8 @@ def main():
     ap.add_argument("--duration", type=float, default=300.0)
     ap.add_argument("--build", default=os.path.join(ROOT, "_build"))
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--config", help="vims_offline --config file for every run (an A/B against the defaults: "
+                    "use another --work, or link the sequences into it)")
     args = ap.parse_args()
     rig_dir = os.path.join(ROOT, "config", "rigs")
     rigs = args.rigs or sorted((os.path.splitext(os.path.basename(p))[0] for p in glob.glob(rig_dir + "/*.yaml")),
@@ -64,6 +67,8 @@ def main():
         # A finished run of an earlier call (its summary is written last) is reused.
         if not os.path.exists(os.path.join(out, "summary.yaml")):
             cmd = [os.path.join(bin_dir, "vims_offline"), "--sequence", seq, "--out", out, "--quiet"]
+            if args.config:
+                cmd += ["--config", os.path.abspath(args.config)]
             if run_logged(cmd, out + ".log") != 0:
                 sys.exit(f"rig_sweep.py: vims_offline failed, see {out}.log")
         figures = eval_run(bin_dir, seq, out)
