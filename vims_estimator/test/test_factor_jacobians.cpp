@@ -37,13 +37,26 @@ std::vector<double> speedBiasBlock(const Eigen::Vector3d& v, const Eigen::Vector
   return b;
 }
 
-/// A camera looking down from an FLU body (optical z = -body z), slightly rotated and offset.
-Eigen::Isometry3d downLookingCamera(std::mt19937& rng) {
-  Eigen::Isometry3d T_b_c = Eigen::Isometry3d::Identity();
-  T_b_c.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.2)).toRotationMatrix();
-  T_b_c.translation() = randomVector(rng, 0.2);
-  return T_b_c;
+/// A pose rotated by up to `max_angle` [rad] and placed within `extent` [m] per axis of the origin
+/// (the rotation is drawn first).
+Eigen::Isometry3d randomPose(std::mt19937& rng, double max_angle, double extent) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = randomRotation(rng, max_angle).toRotationMatrix();
+  T.translation() = randomVector(rng, extent);
+  return T;
 }
+
+/// A sensor looking down from an FLU body (its z = -body z), rotated by up to `max_angle` and
+/// offset by up to `extent` from there (a camera or the sonar's mount).
+Eigen::Isometry3d randomDownLookingPose(std::mt19937& rng, double max_angle, double extent) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, max_angle)).toRotationMatrix();
+  T.translation() = randomVector(rng, extent);
+  return T;
+}
+
+/// A camera looking down from an FLU body (optical z = -body z), slightly rotated and offset.
+Eigen::Isometry3d downLookingCamera(std::mt19937& rng) { return randomDownLookingPose(rng, 0.2, 0.2); }
 
 FeatureObservation randomObservation(std::mt19937& rng) {
   FeatureObservation o;
@@ -193,9 +206,7 @@ TEST(FactorJacobians, SonarDepthFactor) {
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(200 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
-    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
-    T_b_s.translation() = randomVector(rng, 0.3);
+    Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
     Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
     T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();  // roll/pitch matter
     T_l_bk.translation() = randomVector(rng, 3.0);
@@ -223,9 +234,7 @@ TEST(FactorJacobians, SeabedHeightFactor) {
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(300 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
-    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
-    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_bk.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_l_bk = randomPose(rng, 0.4, 3.0);
     const FeatureObservation anchor = randomObservation(rng);
     const double lambda = 3.0 + randomVector(rng, 1.0).x();
     const double td = randomVector(rng, 0.02).x();
@@ -249,12 +258,8 @@ TEST(FactorJacobians, SlopedSonarDepthFactor) {
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(400 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
-    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
-    T_b_s.translation() = randomVector(rng, 0.3);
-    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
-    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_bk.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
+    Eigen::Isometry3d T_l_bk = randomPose(rng, 0.4, 3.0);
     const FeatureObservation anchor = randomObservation(rng);
     const double range = 3.0 + randomVector(rng, 1.0).x();
     const double lambda = 3.0 + randomVector(rng, 1.0).x();
@@ -284,9 +289,7 @@ TEST(FactorJacobians, SeabedHeightFactorOnASlopedPlane) {
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(500 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
-    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
-    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_bk.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_l_bk = randomPose(rng, 0.4, 3.0);
     const FeatureObservation anchor = randomObservation(rng);
     const SeabedPlane plane{-2.5 + randomVector(rng, 0.5).x(), randomVector(rng, 4.0).head<2>(),
                             randomVector(rng, 0.15).head<2>()};
@@ -311,12 +314,8 @@ TEST(FactorJacobians, WindowHitFactor) {
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(600 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
-    Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-    T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
-    T_b_s.translation() = randomVector(rng, 0.3);
-    Eigen::Isometry3d T_l_ba = Eigen::Isometry3d::Identity();
-    T_l_ba.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_ba.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
+    Eigen::Isometry3d T_l_ba = randomPose(rng, 0.4, 3.0);
     Eigen::Isometry3d T_l_bj = Eigen::Isometry3d::Identity();
     T_l_bj.linear() = randomRotation(rng, 0.4).toRotationMatrix();
     T_l_bj.translation() = T_l_ba.translation() + randomVector(rng, 1.5);
@@ -378,9 +377,7 @@ TEST(SonarDepth, SeabedHeightEqualsSonarDepthAtTheMeasuredHeight) {
   // With h = the height the sonar measured at this keyframe, both residuals agree; the carried
   // sigma grows with the distance from the fix and the gate uses it.
   std::mt19937 rng(11);
-  Eigen::Isometry3d T_b_s = Eigen::Isometry3d::Identity();
-  T_b_s.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, 0.1)).toRotationMatrix();
-  T_b_s.translation() = randomVector(rng, 0.3);
+  Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
   const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
   Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
   T_l_bk.linear() = randomRotation(rng, 0.2).toRotationMatrix();
@@ -452,9 +449,7 @@ TEST(FactorJacobians, PressureDepthFactor) {
   double worst = 0.0;
   for (unsigned seed : kSeeds) {
     std::mt19937 rng(600 + seed);
-    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
-    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_bk.translation() = randomVector(rng, 3.0);
+    Eigen::Isometry3d T_l_bk = randomPose(rng, 0.4, 3.0);
     const Eigen::Vector3d p_bp = randomVector(rng, 0.5);
     const PressureDepthFactor factor(8.0 + randomVector(rng, 2.0).x(), p_bp, 0.01);
     std::vector<std::vector<double>> params = {poseBlock(T_l_bk), {12.0 + randomVector(rng, 1.0).x()}};
