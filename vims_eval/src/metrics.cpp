@@ -119,6 +119,14 @@ std::vector<double> tiltErrorsDeg(const std::vector<StampedPose>& gt, const std:
   return errors;
 }
 
+std::vector<double> heightErrors(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est) {
+  checkEqualLength(gt, est);
+  std::vector<double> errors;
+  errors.reserve(gt.size());
+  for (std::size_t i = 0; i < gt.size(); ++i) errors.push_back(std::abs(est[i].p.z() - gt[i].p.z()));
+  return errors;
+}
+
 AlignedErrors evaluateAligned(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est,
                               AlignmentMode mode, double rpe_delta_m) {
   checkEqualLength(gt, est);
@@ -131,6 +139,7 @@ AlignedErrors evaluateAligned(const std::vector<StampedPose>& gt, const std::vec
   out.ate = ErrorStats::compute(out.trans_errors_m);
   out.rot = ErrorStats::compute(out.rot_errors_deg);
   out.tilt = ErrorStats::compute(tiltErrorsDeg(gt, out.est_aligned));
+  out.height = ErrorStats::compute(heightErrors(gt, out.est_aligned));
   const double distance = pathLength(gt);
   out.ate_rmse_pct = distance > 0.0 ? 100.0 * out.ate.rmse / distance : 0.0;
   out.rpe = computeRpe(gt, out.est_aligned, rpe_delta_m);

@@ -144,9 +144,10 @@ std::string trajectorySummaryLine(const TrajectoryEvaluation& ev) {
      << "_trans_pct=" << num(100.0 * rpe_trans / primary.rpe.delta_m, 4) << " " << rpe
      << "_rot_deg=" << num(statOrNan(primary.rpe.rot, primary.rpe.rot.rmse), 4) << " " << rpe
      << "_pairs=" << primary.rpe.pairs.size();
-  // Tilt after the yaw-only alignment when there is one: an SE3 fit may tilt the estimate.
-  const AlignedErrors* yaw_only = ev.find(AlignmentMode::kPosYaw);
-  os << " tilt_rmse_deg=" << num((yaw_only ? *yaw_only : primary).tilt.rmse, 4);
+  // Tilt and height after the yaw-only alignment when there is one: an SE3 fit may tilt the
+  // estimate, which turns a vertical drift into a rotation error.
+  const AlignedErrors& yaw_only = ev.find(AlignmentMode::kPosYaw) ? *ev.find(AlignmentMode::kPosYaw) : primary;
+  os << " tilt_rmse_deg=" << num(yaw_only.tilt.rmse, 4) << " height_rmse_m=" << num(yaw_only.height.rmse, 4);
   return os.str();
 }
 
@@ -173,6 +174,7 @@ YAML::Node trajectoryToYaml(const TrajectoryEvaluation& ev) {
     a["ate_rmse_pct"] = yamlNumber(r.ate_rmse_pct);
     a["rot_deg"] = statsNode(r.rot);
     a["tilt_deg"] = statsNode(r.tilt);
+    a["height_m"] = statsNode(r.height);
     YAML::Node rpe;
     rpe["delta_m"] = yamlNumber(r.rpe.delta_m);
     rpe["pairs"] = r.rpe.pairs.size();

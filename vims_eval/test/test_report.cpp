@@ -45,7 +45,7 @@ TEST(Report, TrajectorySummaryLineIsParseable) {
   EXPECT_EQ(kv.at("poses"), "101");
   for (const char* key : {"dist_m", "duration_s", "ate_se3_m", "ate_se3_pct", "ate_sim3_m", "ate_sim3_pct", "scale",
                           "ate_posyaw_m", "ate_none_m", "rot_rmse_deg", "rpe10_trans_m", "rpe10_trans_pct",
-                          "rpe10_rot_deg", "rpe10_pairs", "tilt_rmse_deg"})
+                          "rpe10_rot_deg", "rpe10_pairs", "tilt_rmse_deg", "height_rmse_m"})
     EXPECT_TRUE(kv.count(key)) << key << " missing in " << summary;
   EXPECT_NEAR(std::stod(kv.at("scale")), 1.0 / 1.05, 1e-5);
   EXPECT_NEAR(std::stod(kv.at("ate_sim3_m")), 0.0, 1e-4);

@@ -46,6 +46,8 @@ std::vector<double> rotationErrorsDeg(const std::vector<StampedPose>& gt, const 
 /// from the estimated body (R^T e_z), i.e. the roll/pitch part of the attitude error. A rotation of
 /// the estimate about the vertical (yaw alignment) does not change it.
 std::vector<double> tiltErrorsDeg(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est);
+/// |z_est_i - z_gt_i| for equal-length lists [m]: the vertical part of the translation error.
+std::vector<double> heightErrors(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est);
 /// Rotation angle of a unit quaternion [deg], in [0, 180].
 double rotationAngleDeg(const Eigen::Quaterniond& q);
 
@@ -77,6 +79,9 @@ struct AlignedErrors {
   double ate_rmse_pct = 0.0;  ///< ate.rmse as a percentage of the ground-truth distance travelled
   ErrorStats rot;             ///< rotation error [deg]
   ErrorStats tilt;            ///< tilt (roll/pitch) error [deg], tiltErrorsDeg
+  /// Height error [m], heightErrors. After the posyaw alignment it shows a vertical drift, which an
+  /// SE3 fit hides by tilting the whole estimate (and then reports as a rotation error).
+  ErrorStats height;
   RpeResult rpe;
 };
 
