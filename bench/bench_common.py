@@ -58,14 +58,15 @@ def _summary(line):
 
 def eval_run(bin_dir, sequence, out):
     """`vims_eval run` on a finished vims_offline output folder: VIO and global SE(3) ATE [% of
-    distance and m], the ground truth's distance [m], rotation RMSE, tilt error (yaw-only
-    alignment) [deg], loops. nan (or -1 loops) for what the folder lacks (e.g. --vio-only runs
+    distance and m], the ground truth's distance [m], rotation RMSE, tilt error [deg] and height
+    error [m] (both after the position-and-yaw alignment), loops. nan (or -1 loops) for what the folder lacks (e.g. --vio-only runs
     have no global trajectory)."""
     proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out],
                           capture_output=True, text=True)
     nan = float("nan")
-    figures = {"vio_pct": nan, "vio_m": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "global_pct": nan,
-               "global_m": nan, "global_rot_deg": nan, "global_tilt_deg": nan, "distance_m": nan,
+    figures = {"vio_pct": nan, "vio_m": nan, "vio_rot_deg": nan, "vio_tilt_deg": nan, "vio_height_m": nan,
+               "global_pct": nan, "global_m": nan, "global_rot_deg": nan, "global_tilt_deg": nan,
+               "global_height_m": nan, "distance_m": nan,
                "loops_correct": -1, "loops_wrong": -1}
     for line in proc.stdout.splitlines():
         if line.startswith("VIMS_EVAL "):
@@ -78,6 +79,7 @@ def eval_run(bin_dir, sequence, out):
                 figures[f"{label}_m"] = float(kv.get("ate_se3_m", nan))
                 figures[f"{label}_rot_deg"] = float(kv.get("rot_rmse_deg", nan))
                 figures[f"{label}_tilt_deg"] = float(kv.get("tilt_rmse_deg", nan))
+                figures[f"{label}_height_m"] = float(kv.get("height_rmse_m", nan))
         elif line.startswith("VIMS_EVAL_LOOPS "):
             kv = _summary(line)
             figures["loops_correct"] = int(kv.get("correct", -1))

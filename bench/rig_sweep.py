@@ -77,8 +77,8 @@ def main():
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         rows = list(pool.map(fly, jobs))
 
-    keys = ["rig", "seed", "distance_m", "vio_m", "vio_pct", "global_m", "global_pct", "global_rot_deg",
-            "loops_correct", "loops_wrong", "real_time_factor"]
+    keys = ["rig", "seed", "distance_m", "vio_m", "vio_pct", "vio_height_m", "global_m", "global_pct",
+            "global_rot_deg", "global_height_m", "loops_correct", "loops_wrong", "real_time_factor"]
     with open(os.path.join(work, "rig_sweep.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
         w.writeheader()
