@@ -59,8 +59,8 @@ def _summary(line):
 def eval_run(bin_dir, sequence, out):
     """`vims_eval run` on a finished vims_offline output folder: VIO and global SE(3) ATE [% of
     distance and m], the ground truth's distance [m], rotation RMSE, tilt error [deg] and height
-    error [m] (both after the position-and-yaw alignment), loops. nan (or -1 loops) for what the folder lacks (e.g. --vio-only runs
-    have no global trajectory)."""
+    error [m] (both after the position-and-yaw alignment), loops. nan (or -1 loops) for what the
+    folder lacks (e.g. --vio-only runs have no global trajectory)."""
     proc = subprocess.run([os.path.join(bin_dir, "vims_eval"), "run", "--sequence", sequence, "--out", out],
                           capture_output=True, text=True)
     nan = float("nan")

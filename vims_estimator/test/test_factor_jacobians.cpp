@@ -207,9 +207,7 @@ TEST(FactorJacobians, SonarDepthFactor) {
     std::mt19937 rng(200 + seed);
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
     Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
-    Eigen::Isometry3d T_l_bk = Eigen::Isometry3d::Identity();
-    T_l_bk.linear() = randomRotation(rng, 0.4).toRotationMatrix();  // roll/pitch matter
-    T_l_bk.translation() = randomVector(rng, 3.0);
+    const Eigen::Isometry3d T_l_bk = randomPose(rng, 0.4, 3.0);  // roll/pitch matter
 
     const FeatureObservation anchor = randomObservation(rng);
     const double range = 3.0 + randomVector(rng, 1.0).x();
@@ -316,9 +314,8 @@ TEST(FactorJacobians, WindowHitFactor) {
     const Eigen::Isometry3d T_b_c = downLookingCamera(rng);
     Eigen::Isometry3d T_b_s = randomDownLookingPose(rng, 0.1, 0.3);
     Eigen::Isometry3d T_l_ba = randomPose(rng, 0.4, 3.0);
-    Eigen::Isometry3d T_l_bj = Eigen::Isometry3d::Identity();
-    T_l_bj.linear() = randomRotation(rng, 0.4).toRotationMatrix();
-    T_l_bj.translation() = T_l_ba.translation() + randomVector(rng, 1.5);
+    Eigen::Isometry3d T_l_bj = randomPose(rng, 0.4, 1.5);  // within 1.5 m of the anchor keyframe
+    T_l_bj.translation() += T_l_ba.translation();
     const FeatureObservation anchor = randomObservation(rng);
     const double range = 3.0 + randomVector(rng, 1.0).x();
     const Eigen::Vector2d slope = randomVector(rng, 0.15).head<2>();
