@@ -49,9 +49,8 @@ Eigen::Isometry3d randomPose(std::mt19937& rng, double max_angle, double extent)
 /// A sensor looking down from an FLU body (its z = -body z), rotated by up to `max_angle` and
 /// offset by up to `extent` from there (a camera or the sonar's mount).
 Eigen::Isometry3d randomDownLookingPose(std::mt19937& rng, double max_angle, double extent) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * randomRotation(rng, max_angle)).toRotationMatrix();
-  T.translation() = randomVector(rng, extent);
+  Eigen::Isometry3d T = randomPose(rng, max_angle, extent);
+  T.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix() * T.linear();
   return T;
 }
 

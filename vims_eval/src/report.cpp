@@ -146,7 +146,8 @@ std::string trajectorySummaryLine(const TrajectoryEvaluation& ev) {
      << "_pairs=" << primary.rpe.pairs.size();
   // Tilt and height after the yaw-only alignment when there is one: an SE3 fit may tilt the
   // estimate, which turns a vertical drift into a rotation error.
-  const AlignedErrors& yaw_only = ev.find(AlignmentMode::kPosYaw) ? *ev.find(AlignmentMode::kPosYaw) : primary;
+  const AlignedErrors* posyaw = ev.find(AlignmentMode::kPosYaw);
+  const AlignedErrors& yaw_only = posyaw ? *posyaw : primary;
   os << " tilt_rmse_deg=" << num(yaw_only.tilt.rmse, 4) << " height_rmse_m=" << num(yaw_only.height.rmse, 4);
   return os.str();
 }
