@@ -180,6 +180,45 @@ TEST(PoseGraphManager, LocalisedRunsQueryOnlyEveryIntervalWhileLoopsIntoTheMapKe
   std::remove(teach_path.c_str());
 }
 
+TEST(PoseGraphManager, PlacesAreThinnedToTheIntervalButALoadedMapIsSearchedByEveryKeyframe) {
+  const SimRun& a = runA();
+  PoseGraphManagerOptions o = testOptions();
+  o.place_min_interval_s = 2.5;
+  PoseGraphManager thinned(o, test::testSequence(), vocabularyFor(o));
+  feed(thinned, a);
+  const PoseGraphManagerStats st = thinned.stats();
+  EXPECT_EQ(st.keyframes, a.keyframes.size());
+  // Keyframes are 1 s apart: two of every three are odometry nodes without a place.
+  EXPECT_GT(st.thinned_places, a.keyframes.size() / 2);
+  EXPECT_EQ(st.loop_queries + st.thinned_places, a.keyframes.size());
+  EXPECT_EQ(st.localisation_skipped_queries, 0u);
+  EXPECT_EQ(thinned.mapContents().visual.size(), st.loop_queries) << "only the places keep a submap";
+  EXPECT_EQ(st.yaw_factors, a.keyframes.size()) << "every keyframe is still a node with its yaw factor";
+  // The places left still close the run's loops, correctly, and correct its drift.
+  EXPECT_GE(st.loops_accepted, 1u);
+  expectAcceptedLoopsCorrect(thinned.loopAttempts(), a, a);
+  EXPECT_LT(maxPositionError(thinned.keyframePoses(), a, frameOf(thinned.keyframePoses(), a)), 0.25);
+
+  // A repeat run in a loaded map queries every keyframe until it is found, then thins.
+  const SimRun& b = runB();
+  const std::string teach_path = tempPath("thin_teach.vmap");
+  teachMap(teach_path);
+  auto repeat = [&](double interval_s) {
+    PoseGraphManagerOptions r = testOptions();
+    r.place_min_interval_s = interval_s;
+    auto m = std::make_unique<PoseGraphManager>(r, test::testSequence(), vocabularyFor(r));
+    m->loadMap(teach_path);
+    feed(*m, b);
+    return m->stats();
+  };
+  const PoseGraphManagerStats every = repeat(0.0), few = repeat(2.5);
+  ASSERT_TRUE(few.relocalised);
+  EXPECT_DOUBLE_EQ(few.relocalised_t, every.relocalised_t);
+  EXPECT_EQ(every.thinned_places, 0u);
+  EXPECT_GT(few.thinned_places, 0u);
+  std::remove(teach_path.c_str());
+}
+
 TEST(PoseGraphManager, ExtendAddsTheRunsPlacesSoTheMapHoldsBothMissionsAndModesSwitchWhileRunning) {
   const SimRun& b = runB();
   const std::string teach_path = tempPath("ext_teach.vmap");

@@ -179,8 +179,8 @@ struct LoopDetectorOptions {
   /// tracked corner of the candidate within 3 px, and ~12 an ORB keypoint; a dense set of the
   /// same detector's corners re-finds ~40 (tank750, vims_pose_graph_replay --diagnose).
   int submap_dense_corners = 800;
-  /// The query's 3D points are those of the query keyframe and of up to this many preceding
-  /// keyframes of its VIO session (a local map, as VINS-Mono's window / ORB-SLAM's local map):
+  /// The query's 3D points are those of the query keyframe and of the described ones among this
+  /// many preceding keyframes of its VIO session (a local map, as VINS-Mono's window / ORB-SLAM's local map):
   /// one keyframe's ~125 describable points see too little of a revisit (0-6 correct matches at
   /// tank750 revisits); neighbours add the area around it and more views of each point.
   int query_local_map_keyframes = 5;
@@ -376,6 +376,13 @@ struct PoseGraphManagerOptions {
   /// [s] no loop into the map for this long (by keyframe time; a query waits up to
   /// magnetic_wait_s for its signature): every keyframe queries again until one is found.
   double localisation_lost_after_s = 5.0;
+  /// Mapping and extending: a keyframe becomes a place (visual submap stored, loop query run) only
+  /// when this long [s] has passed since the last one that did; the others are odometry nodes
+  /// (edges, yaw and depth factors) without a description. A slow vehicle makes a keyframe every
+  /// 0.3-0.5 s, and describing and querying them is most of the pose graph's CPU; places half a
+  /// second apart still overlap by most of the image. While a loaded map is not yet found, every
+  /// keyframe queries. 0: every keyframe is a place (the default: docs/benchmarks.md, "Speed").
+  double place_min_interval_s = 0.0;
   /// Vocabulary per descriptor type (relative paths are relative to the package root; the
   /// caller resolves them, see resolveVocabularyPath). The mode picks one.
   std::string vocabulary_orb = "config/vocabulary/orb_k8l4.vocab";

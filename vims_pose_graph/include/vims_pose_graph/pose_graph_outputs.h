@@ -70,6 +70,9 @@ struct PoseGraphManagerStats {
   /// Keyframes that ran no loop query because the run was localised and its loops into the map
   /// kept coming (PoseGraphManagerOptions::localisation_query_interval_s).
   size_t localisation_skipped_queries = 0;
+  /// Keyframes of a mapping or extending run that were no place and ran no loop query: a place
+  /// was made less than PoseGraphManagerOptions::place_min_interval_s before.
+  size_t thinned_places = 0;
   size_t loaded_keyframes = 0;
   size_t sessions = 0;  ///< of this run
   size_t loop_queries = 0;

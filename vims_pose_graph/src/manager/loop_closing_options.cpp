@@ -209,6 +209,7 @@ const OptionTable<PoseGraphManagerOptions>& PoseGraphManagerOptions::optionTable
           .choice<MapMode>("map_mode", &O::map_mode, map_modes, [](MapMode m) { return toString(m); })
           .number("localisation_query_interval_s", &O::localisation_query_interval_s, Bounds::closed(0.0, 600.0))
           .number("localisation_lost_after_s", &O::localisation_lost_after_s, Bounds::closed(0.0, 3600.0))
+          .number("place_min_interval_s", &O::place_min_interval_s, Bounds::closed(0.0, 600.0))
           .text("vocabulary_orb", &O::vocabulary_orb, false)
           .text("vocabulary_brief", &O::vocabulary_brief, false)
           .flag("synchronous", &O::synchronous)

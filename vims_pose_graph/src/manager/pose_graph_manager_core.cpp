@@ -91,8 +91,12 @@ KeyframeDescription PoseGraphManagerCore::describe(const KeyframeData& kf) {
 }
 
 bool PoseGraphManagerCore::wantsQuery(double t) const {
-  if (map_mode_ != MapMode::kLocalisation || !stats_.relocalised || !(options_.localisation_query_interval_s > 0.0))
-    return true;
+  if (map_mode_ != MapMode::kLocalisation) {
+    if (!(options_.place_min_interval_s > 0.0)) return true;
+    if (map_loaded_ && !stats_.relocalised) return true;  // the loaded map is still to be found
+    return !(t - last_queried_keyframe_t_ < options_.place_min_interval_s);
+  }
+  if (!stats_.relocalised || !(options_.localisation_query_interval_s > 0.0)) return true;
   if (!(t - stats_.last_loop_into_map_t < options_.localisation_lost_after_s)) return true;  // lost: search
   return !(t - last_queried_keyframe_t_ < options_.localisation_query_interval_s);
 }
@@ -198,7 +202,7 @@ void PoseGraphManagerCore::addKeyframe(const KeyframeData& kf, KeyframeDescripti
   ++stats_.keyframes;
   if (queried) last_queried_keyframe_t_ = kf.t;
   if (!queried) {
-    ++stats_.localisation_skipped_queries;
+    ++(localising ? stats_.localisation_skipped_queries : stats_.thinned_places);
   } else if (!has_visual) {
     ++stats_.empty_keyframes;
     logger_->warnThrottled(kComponent, "empty_keyframe", kf.t, 5.0,
@@ -460,6 +464,11 @@ void PoseGraphManagerCore::processPending(PendingKeyframe& p) {
   query.points = std::move(p.points);
   if (options_.loop.query_local_map_keyframes > 0) {
     const uint32_t session = map_.node(p.node).session;
+    // The local map spans the last query_local_map_keyframes keyframes, described or not: with
+    // places thinned (place_min_interval_s) the last N described ones reach further back, where
+    // the VIO's drift no longer fits the query's points together.
+    const auto window = static_cast<PoseGraphNodeId>(options_.loop.query_local_map_keyframes);
+    while (!recent_points_.empty() && recent_points_.front().node + window < p.node) recent_points_.pop_front();
     DescribedPoints own = query.points;  // the keyframe's own points, for the next queries
     for (auto it = recent_points_.rbegin(); it != recent_points_.rend(); ++it)
       if (it->session == session) mergeDescribedPoints(&query.points, it->points);

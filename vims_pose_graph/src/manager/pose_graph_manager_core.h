@@ -55,7 +55,7 @@ class PoseGraphManagerCore {
   /// Empty for a keyframe addKeyframe will drop (non-finite time or invalid pose).
   KeyframeDescription describe(const KeyframeData& keyframe);
   /// Whether a keyframe at time t should be described and queried
-  /// (PoseGraphManagerOptions::localisation_query_interval_s); needs the map lock.
+  /// (PoseGraphManagerOptions::localisation_query_interval_s, place_min_interval_s); needs the map lock.
   bool wantsQuery(double t) const;
   /// See PoseGraphManager::feedKeyframe; `description` from describe(keyframe), or none when
   /// wantsQuery said no (`queried` false: an odometry node only).
