@@ -70,3 +70,19 @@ TEST(CommittedConfigs, LongMissionProfileCullsRedundantViews) {
   EXPECT_FALSE(profile.loop.keep_culled_bow_vectors);
   EXPECT_GT(profile.loop.redundant_submap_radius_m, vims::PoseGraphManagerOptions().loop.redundant_submap_radius_m);
 }
+
+/// config/embedded.yaml: the embedded budget (issue 19) caps features, keyframes and places, and
+/// every key in it is one the modules accept.
+TEST(CommittedConfigs, EmbeddedProfileCapsFeaturesKeyframesAndPlaces) {
+  const vims::ConfigReader root = committedConfig("embedded.yaml");
+  ASSERT_NO_THROW(root.rejectUnknownKeys({"tracker", "estimator", "pose_graph"}));
+  vims::TrackerOptions tracker;
+  vims::EstimatorOptions estimator;
+  vims::PoseGraphManagerOptions pose_graph;
+  ASSERT_NO_THROW(tracker = vims::TrackerOptions::fromReader(root.child("tracker")));
+  ASSERT_NO_THROW(estimator = vims::EstimatorOptions::fromReader(root.child("estimator")));
+  ASSERT_NO_THROW(pose_graph = vims::PoseGraphManagerOptions::fromReader(root.child("pose_graph")));
+  EXPECT_LT(tracker.max_features, vims::TrackerOptions().max_features);
+  EXPECT_GT(estimator.keyframe_parallax_px, vims::EstimatorOptions().keyframe_parallax_px);
+  EXPECT_GT(pose_graph.place_min_interval_s, vims::PoseGraphManagerOptions().place_min_interval_s);
+}

@@ -421,7 +421,12 @@ OfflineSummary OfflinePipeline::run() {
   const double vio_s = summary.frontend_total_s + summary.backend_total_s;
   summary.vio_real_time_factor = vio_s > 0 ? span / vio_s : 0.0;
   struct rusage usage {};
-  if (getrusage(RUSAGE_SELF, &usage) == 0) summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
+  if (getrusage(RUSAGE_SELF, &usage) == 0) {
+    summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
+    const auto seconds = [](const timeval& tv) { return static_cast<double>(tv.tv_sec) + 1e-6 * tv.tv_usec; };
+    summary.cpu_total_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+    summary.cpu_per_sequence_s = span > 0 ? summary.cpu_total_s / span : 0.0;
+  }
   // Where the resident memory is (glibc, all arenas): what the program holds, and what it freed
   // but the allocator keeps (fragmentation), so a soak can tell growth from retention.
   const struct mallinfo2 heap = mallinfo2();
@@ -464,7 +469,8 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
   const PoseGraphManagerStats& pg = s.pose_graph;
   out << "pose_graph: {keyframes: " << pg.keyframes << ", empty_keyframes: " << pg.empty_keyframes
       << ", culled_submaps: " << pg.culled_submaps << ", localisation_keyframes: " << pg.localisation_keyframes
-      << ", localisation_skipped_queries: " << pg.localisation_skipped_queries << ", sessions: " << pg.sessions
+      << ", localisation_skipped_queries: " << pg.localisation_skipped_queries
+      << ", thinned_places: " << pg.thinned_places << ", sessions: " << pg.sessions
       << ", loop_queries: " << pg.loop_queries << ", loop_attempts: " << pg.loop_attempts
       << ", loops_accepted: " << pg.loops_accepted << ", yaw_factors: " << pg.yaw_factors
       << ", yaw_rejected: " << pg.yaw_rejected
@@ -492,6 +498,7 @@ void OfflinePipeline::writeSummary(const OfflineSummary& s) const {
       << ", pose_graph_optimisations: " << s.pose_graph_optimisation_calls << "}\n";
   out << "vio_cpu_s: {frontend: " << s.frontend_cpu_s << ", backend: " << s.backend_cpu_s
       << ", real_time_factor: " << s.vio_cpu_real_time_factor << "}\n";
+  out << "cpu_s: {total: " << s.cpu_total_s << ", per_sequence_s: " << s.cpu_per_sequence_s << "}\n";
   out << "messages:\n";
   for (const auto& [topic, stats] : s.topics) {
     out << "  " << topic << ": {type: " << stats.type << ", count: " << stats.messages
