@@ -421,12 +421,9 @@ OfflineSummary OfflinePipeline::run() {
   const double vio_s = summary.frontend_total_s + summary.backend_total_s;
   summary.vio_real_time_factor = vio_s > 0 ? span / vio_s : 0.0;
   struct rusage usage {};
-  if (getrusage(RUSAGE_SELF, &usage) == 0) {
-    summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
-    const auto seconds = [](const timeval& tv) { return static_cast<double>(tv.tv_sec) + 1e-6 * tv.tv_usec; };
-    summary.cpu_total_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
-    summary.cpu_per_sequence_s = span > 0 ? summary.cpu_total_s / span : 0.0;
-  }
+  if (getrusage(RUSAGE_SELF, &usage) == 0) summary.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB
+  summary.cpu_total_s = processCpuSeconds();
+  summary.cpu_per_sequence_s = span > 0 ? summary.cpu_total_s / span : 0.0;
   // Where the resident memory is (glibc, all arenas): what the program holds, and what it freed
   // but the allocator keeps (fragmentation), so a soak can tell growth from retention.
   const struct mallinfo2 heap = mallinfo2();

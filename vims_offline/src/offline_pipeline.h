@@ -90,7 +90,7 @@ struct OfflineSummary {
   /// sequence_duration_s over their sum: the VIO's cost, independent of other load on the machine.
   double frontend_cpu_s = 0.0, backend_cpu_s = 0.0, vio_cpu_real_time_factor = 0.0;
   /// CPU time of the whole process (every thread: bag reading, VIO, magnetometer, pose graph;
-  /// getrusage user + system) [s], and that per second of sequence.
+  /// processCpuSeconds) [s], and that per second of sequence.
   double cpu_total_s = 0.0, cpu_per_sequence_s = 0.0;
   double peak_rss_mb = 0.0;            ///< getrusage ru_maxrss at the end of the run
   double heap_in_use_mb = 0.0;         ///< mallinfo2 uordblks + hblkhd at the end of the run

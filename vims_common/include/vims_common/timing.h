@@ -10,6 +10,8 @@ namespace vims {
 /// CPU time of the calling thread [s]: unlike wall time it does not grow when other processes
 /// compete for the cores, so it measures the work itself. 0 if the clock is unavailable.
 double threadCpuSeconds();
+/// CPU time of the whole process, every thread [s]; 0 if the clock is unavailable.
+double processCpuSeconds();
 
 /// Wall time since `start` on the steady clock [ms].
 double millisecondsSince(std::chrono::steady_clock::time_point start);
